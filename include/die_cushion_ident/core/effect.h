@@ -1,0 +1,57 @@
+#pragma once
+
+#include <limits>
+#include <memory>
+#include <string>
+
+#include "die_cushion_ident/core/hydraulic_signals.h"
+
+namespace die_cushion_ident {
+
+/// A physically named parameter with its SI unit and a typical magnitude (used for scaling and as default start).
+struct ParameterInfo {
+  std::string name;
+  std::string unit;
+  double nominal = 1.0;
+  double lower_bound = -std::numeric_limits<double>::infinity();  ///< physically plausible range
+  double upper_bound = std::numeric_limits<double>::infinity();
+};
+
+/// Opening and pressure drop of the metering edge in use: Q_v = K_v * opening * sqrt(max(pressure_drop, 0)).
+struct ValvePort {
+  double opening = 0.0;        ///< effective opening [-]
+  double pressure_drop = 0.0;  ///< [Pa]
+};
+
+/// One physical effect that extends the base pressure build-up model by one parameter theta.
+///
+/// Additive effects enter the volume balance linearly:
+///   C += theta * capacitancePerUnit(signals),   Q_extra += theta * outflowPerUnit(signals).
+/// Valve-shape effects reshape the valve port (dead band, back pressure); they are nonlinear in theta and
+/// the identifier relinearises them around the current estimate (doc/equations.md).
+class Effect {
+ public:
+  enum class Coupling { kAdditive, kValveShape };
+
+  virtual ~Effect() = default;
+  virtual std::unique_ptr<Effect> clone() const = 0;
+
+  /// Name as used in configuration and summary.yaml (part of the interface for library effects).
+  virtual std::string name() const = 0;
+  /// One line of physics for a user who wonders what the effect means.
+  virtual std::string explanation() const = 0;
+  virtual ParameterInfo parameter() const = 0;
+  virtual Coupling coupling() const { return Coupling::kAdditive; }
+
+  /// Additive effects: extra capacitance per unit of theta [m^3/Pa per unit].
+  virtual double capacitancePerUnit(const HydraulicSignals& /*signals*/) const { return 0.0; }
+  /// Additive effects: extra outflow per unit of theta [m^3/s per unit].
+  virtual double outflowPerUnit(const HydraulicSignals& /*signals*/) const { return 0.0; }
+
+  /// Valve-shape effects: reshape `port` for spool position y and parameter theta, and give the
+  /// derivative of both port quantities with respect to theta in `derivative`.
+  virtual void shapeValvePort(double /*y*/, double /*theta*/, ValvePort& /*port*/,
+                              ValvePort& /*derivative*/) const {}
+};
+
+}  // namespace die_cushion_ident

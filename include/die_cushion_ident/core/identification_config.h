@@ -1,0 +1,65 @@
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/hydraulic_signals.h"
+#include "die_cushion_ident/core/servo_valve.h"
+#include "die_cushion_ident/core/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// How the volume balance becomes a regression (doc/equations.md).
+enum class RegressionForm {
+  /// Default. The balance's primitives (state functions and running integrals) are filtered by the moving
+  /// average and differenced over the derivative window: the filtered equation holds exactly, no smear bias.
+  kIntegral,
+  /// The paper's: pressure and position are filtered, differentiated, and the regressors formed from the
+  /// filtered signals. Biased where the pressure changes fast; kept for comparison.
+  kDerivative,
+};
+const char* regressionFormName(RegressionForm form);
+bool parseRegressionForm(const std::string& text, RegressionForm* form);
+
+/// Everything the hydraulic identification needs; the ROS layer and analyze_bag fill it from parameters/YAML.
+/// Names match the configuration keys; units SI.
+struct IdentificationConfig {
+  CylinderGeometry geometry;                  ///< piston_area, stroke_length, supply_pressure
+  std::vector<std::string> effects;           ///< library effects in the model
+  std::vector<std::string> custom_effects;    ///< NAME=EXPR
+
+  UniformResampler::Config resampler;         ///< sample_period 0.002 s (paper), gaps, staleness
+  int moving_average_width = 31;              ///< b [samples], odd (paper: 31)
+  int derivative_width = 25;                  ///< d [samples], odd (paper: 25)
+  double identification_period = 0.010;       ///< [s], multiple of sample_period (paper: 10 ms)
+  RegressionForm regression_form = RegressionForm::kIntegral;
+
+  double forgetting_factor = 0.998;           ///< lambda (paper: 0.998)
+  /// P0 = this * I for the normalised parameters (1 = the initial value): a prior std of 1000x the initial
+  /// value, so weakly excited effects (air shows only at low pressure) are not pulled towards their start.
+  double initial_covariance = 1e6;
+  /// Initial physical values by parameter name; the rest start at their nominal values. In normalised form
+  /// every parameter then starts at 1, as in the paper.
+  std::map<std::string, double> initial_parameters;
+
+  double min_pressure = 5e5;                  ///< [Pa] below: near cavitation, model not trusted
+  double max_spool_opening = 0.95;            ///< [-] beyond: valve saturated
+  double min_velocity = 0.002;                ///< [m/s] excitation dead zone: below this and ...
+  double min_pressure_rate = 2e6;             ///< [Pa/s] ... below this, a window carries no information
+
+  /// Spool model used when the spool position is not measured (NaN on the valve topic).
+  ServoValveParameters valve;
+
+  /// Every problem as "name = value is invalid: allowed range"; empty when the configuration is usable.
+  std::vector<std::string> validate() const;
+  int decimation() const;  ///< grid samples per identification step
+};
+
+/// Names of the numeric configuration keys (the same in YAML, ROS parameters and on command lines).
+std::vector<std::string> numericConfigKeys();
+/// Sets a numeric key (e.g. "forgetting_factor", "piston_area", "max_gap"); false if the key is unknown.
+/// Values are checked later by validate(), so that every problem is reported at once.
+bool setNumericConfigValue(IdentificationConfig& config, const std::string& key, double value);
+
+}  // namespace die_cushion_ident

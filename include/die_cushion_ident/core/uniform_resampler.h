@@ -1,0 +1,104 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+namespace die_cushion_ident {
+
+/// The three input streams of shared/CONTRACT.md.
+enum class InputStream : int { kPressure = 0, kPosition = 1, kValve = 2 };
+constexpr int kInputStreamCount = 3;
+const char* inputStreamName(InputStream stream);
+
+/// One message of an input stream: stamp [s] and up to two values.
+/// pressure: first = p [Pa]; position: first = x [m], second = v [m/s] or NaN;
+/// valve: first = command voltage u [V], second = measured spool position y [-] or NaN.
+struct StreamSample {
+  double stamp = 0.0;
+  double first = 0.0;
+  double second = 0.0;
+};
+
+/// One sample on the uniform grid. Channels of a stream that was stale or inside a gap are NaN and
+/// `complete` is false; `discontinuity` marks the first sample after the grid was restarted.
+struct GridSample {
+  double t = 0.0;
+  double p = 0.0, x = 0.0, v = 0.0, u = 0.0, y = 0.0;
+  bool complete = true;
+  bool discontinuity = false;
+};
+
+/// Stamp health of one stream, for diagnostics and reports.
+struct StreamHealth {
+  std::uint64_t received = 0;
+  std::uint64_t accepted = 0;
+  std::uint64_t non_finite = 0;    ///< rejected: NaN/Inf stamp or first value
+  std::uint64_t duplicates = 0;    ///< rejected: same stamp as the previous one
+  std::uint64_t out_of_order = 0;  ///< rejected: stamp before the previous one (small step back)
+  std::uint64_t late = 0;          ///< accepted but too late for grid samples already emitted
+  std::uint64_t gaps = 0;          ///< intervals longer than max_gap
+  double last_stamp = 0.0;
+  double mean_interval = 0.0;      ///< [s]
+  double interval_std = 0.0;       ///< jitter [s]
+  double max_interval = 0.0;       ///< [s]
+  bool stale = false;              ///< silent for longer than stale_timeout while others run
+  double rate() const { return mean_interval > 0.0 ? 1.0 / mean_interval : 0.0; }
+};
+
+/// Resamples the three asynchronous input streams onto one grid t_k = k * sample_period by linear
+/// interpolation between the bracketing messages of each stream, so that the filters downstream see
+/// the constant sampling interval they assume.
+///
+/// A grid point is emitted once every live stream has a message at or after it. Intervals longer than
+/// max_gap are not interpolated across (the channels become NaN). A stream silent for stale_timeout while
+/// the others run is declared stale and its channels are NaN until it speaks again. A stamp more than
+/// restart_jump before the newest one (a bag played again) or a forward jump beyond restart_jump restarts
+/// the grid; the next emitted sample carries `discontinuity`.
+class UniformResampler {
+ public:
+  struct Config {
+    double sample_period = 0.002;  ///< [s]
+    double max_gap = 0.02;         ///< [s] longer message intervals are gaps
+    double stale_timeout = 0.2;    ///< [s]
+    double restart_jump = 1.0;     ///< [s]
+  };
+  enum class PushResult { kAccepted, kNonFinite, kDuplicate, kOutOfOrder, kRestarted };
+
+  explicit UniformResampler(const Config& config);
+
+  /// Adds one message; grid samples that became complete are appended to `out`.
+  PushResult push(InputStream stream, const StreamSample& sample, std::vector<GridSample>* out);
+  /// Declares the input finished (end of a bag): emits what the streams still cover.
+  void flush(std::vector<GridSample>* out);
+  void reset();
+
+  const StreamHealth& health(InputStream stream) const { return health_[static_cast<int>(stream)]; }
+  std::uint64_t restarts() const { return restarts_; }
+  std::uint64_t emitted() const { return emitted_; }
+  const Config& config() const { return config_; }
+
+ private:
+  struct Channel {
+    std::deque<StreamSample> buffer;
+    bool has_any = false;
+  };
+  void restartGrid();
+  void emitReady(std::vector<GridSample>* out, bool flushing);
+  bool interpolate(int stream, double t, double* first, double* second) const;
+  void updateIntervalStatistics(StreamHealth& h, double interval);
+
+  Config config_;
+  std::array<Channel, kInputStreamCount> channels_;
+  std::array<StreamHealth, kInputStreamCount> health_;
+  double newest_stamp_ = 0.0;
+  bool started_ = false;
+  bool grid_started_ = false;
+  bool pending_discontinuity_ = false;
+  std::int64_t next_index_ = 0;  // grid index of the next sample to emit
+  std::uint64_t restarts_ = 0;
+  std::uint64_t emitted_ = 0;
+};
+
+}  // namespace die_cushion_ident

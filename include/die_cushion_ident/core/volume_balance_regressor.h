@@ -1,0 +1,70 @@
+#pragma once
+
+#include <memory>
+
+#include "die_cushion_ident/core/hydraulic_model.h"
+#include "die_cushion_ident/core/identification_config.h"
+#include "die_cushion_ident/core/signal_filters.h"
+#include "die_cushion_ident/core/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// One equation of the volume balance, averaged over a window:  z = sum_j c_j phi_j + e.
+struct RegressionRow {
+  double t = 0.0;              ///< time the row describes, the centre of its window [s]
+  double z = 0.0;              ///< displaced flow A v [m^3/s]
+  double phi[kMaxParameters] = {};  ///< column j multiplies coefficient c_j (HydraulicModel)
+  double p = 0.0, x = 0.0, u = 0.0, y = 0.0;  ///< measured signals at t
+  double velocity = 0.0;       ///< window-mean dx/dt [m/s]
+  double pressure_rate = 0.0;  ///< window-mean dp/dt [Pa/s]
+  bool valid = false;          ///< every sample under the window was usable
+};
+
+/// Turns the uniform sample stream into regression rows of the volume balance, with the paper's moving
+/// average (width b) and symmetrical derivative (width d). Both forms produce one row per sample, centred
+/// (b-1)/2 + (d-1)/2 samples in the past, with the same units, so they can be compared one to one.
+class VolumeBalanceRegressor {
+ public:
+  VolumeBalanceRegressor(const HydraulicModel& model, const IdentificationConfig& config);
+
+  /// Adds one sample (with the spool position filled in). `usable` is false for samples the model must not
+  /// see (incomplete, cavitation, saturated valve); every row whose window touches one is marked invalid.
+  /// Valve-shape effects and the chamber volume use `linearisation_point` (physical parameters).
+  /// Returns true when `row` holds a new row.
+  bool push(const GridSample& sample, bool usable, const ParameterVector& linearisation_point, RegressionRow* row);
+  void clear();
+  int delaySamples() const { return delay_; }
+
+ private:
+  HydraulicSignals signalsAt(double t, double p, double dp, double x, double v, double u, double y,
+                             const ParameterVector& linearisation_point) const;
+  bool pushIntegral(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
+  bool pushDerivative(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
+  void fillColumns(const HydraulicSignals& s, const ParameterVector& point, double pressure_change, double dt,
+                   double* out) const;
+
+  const HydraulicModel& model_;
+  RegressionForm form_;
+  double dt_;
+  int n_;
+  int delay_;
+  DelayLine raw_;  // t, p, x, u, y at the row's time
+
+  // Integral form: increments -> window sum over d-1 increments -> moving average over b.
+  SlidingWindowSum increment_window_;
+  MovingAverageFilter window_average_;
+  bool has_previous_ = false;
+  GridSample previous_;
+  bool previous_usable_ = false;
+
+  // Derivative form: moving average of signals -> symmetric derivative; the rest delayed to line up.
+  MovingAverageFilter signal_average_;
+  SymmetricDerivative derivative_;
+  DelayLine aligned_;
+  SlidingWindowSum span_flags_;
+  double held_[4] = {0, 0, 0, 0};
+
+  std::vector<double> scratch_;
+};
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,28 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/die_cushion_simulator.h"
+#include "die_cushion_ident/core/identification_pipeline.h"
+
+namespace die_cushion_ident {
+namespace testing {
+
+/// A plant with random base parameters (and effect parameters) inside realistic ranges, the acceptance
+/// noise (0.2 bar, 2 um, 0.002 spool) and stamp jitter.
+SimulatorConfig randomPlant(std::uint64_t seed, const std::vector<std::string>& effects = {});
+
+/// Identification settings that match the plant's geometry, with the given model effects.
+IdentificationConfig configFor(const SimulatorConfig& plant, const std::vector<std::string>& effects = {});
+
+/// Runs the plant for `duration` seconds and feeds every message through `pipeline`.
+void feed(DieCushionSimulator& plant, IdentificationPipeline& pipeline, double duration);
+
+/// Value of a named estimate; fails the calling test if absent.
+double estimateOf(const HydraulicEstimate& estimate, const std::string& name);
+double stdOf(const HydraulicEstimate& estimate, const std::string& name);
+
+}  // namespace testing
+}  // namespace die_cushion_ident
