@@ -1,1 +1,132 @@
 #include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "die_cushion_ident/core/effect_library.h"
+#include "die_cushion_ident/core/effects/custom_flow_effect.h"
+
+using namespace die_cushion_ident;
+
+TEST(EffectLibrary, NamesAreTheContractsNames) {
+  const std::vector<std::string> expected{"leakage", "entrained_air", "valve_overlap", "tank_pressure"};
+  EXPECT_EQ(libraryEffectNames(), expected);
+  for (const auto& name : expected) {
+    const auto effect = makeLibraryEffect(name);
+    EXPECT_EQ(effect->name(), name);
+    EXPECT_FALSE(effect->explanation().empty());
+    EXPECT_FALSE(effect->parameter().unit.empty());
+  }
+  EXPECT_EQ(makeLibraryEffect("leakage")->parameter().name, "leakage_conductance");
+  EXPECT_EQ(makeLibraryEffect("entrained_air")->parameter().name, "air_volume");
+  EXPECT_EQ(makeLibraryEffect("valve_overlap")->parameter().name, "valve_overlap");
+  EXPECT_EQ(makeLibraryEffect("tank_pressure")->parameter().name, "tank_pressure");
+}
+
+TEST(EffectLibrary, UnknownNameListsTheKnownOnes) {
+  try {
+    makeLibraryEffect("leakge");
+    FAIL() << "a typo must not pass silently";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("leakage"), std::string::npos);
+  }
+}
+
+TEST(Effects, LeakageIsLaminar) {
+  HydraulicSignals s;
+  s.p = 100e5;
+  EXPECT_DOUBLE_EQ(makeLibraryEffect("leakage")->outflowPerUnit(s), 100e5);
+}
+
+TEST(Effects, EntrainedAirIsIsothermal) {
+  const auto air = makeLibraryEffect("entrained_air");
+  HydraulicSignals s;
+  s.p = 0.0;
+  EXPECT_NEAR(air->capacitancePerUnit(s), 1.0 / kAtmosphericPressure, 1e-18) << "at 0 bar gauge: 1/p_atm";
+  s.p = 100e5;
+  const double abs_p = 100e5 + kAtmosphericPressure;
+  EXPECT_NEAR(air->capacitancePerUnit(s), kAtmosphericPressure / (abs_p * abs_p), 1e-24);
+  s.p = -2e5;  // below vacuum (cavitation in the data): finite, not a division by zero
+  EXPECT_TRUE(std::isfinite(air->capacitancePerUnit(s)));
+}
+
+TEST(Effects, ValveOverlapIsADeadBandWithItsSlope) {
+  const auto overlap = makeLibraryEffect("valve_overlap");
+  ValvePort port{0.5, 1e7}, d;
+  overlap->shapeValvePort(0.5, 0.03, port, d);
+  EXPECT_DOUBLE_EQ(port.opening, 0.47);
+  EXPECT_DOUBLE_EQ(d.opening, -1.0);
+  port = {-0.5, 1e7};
+  overlap->shapeValvePort(-0.5, 0.03, port, d);
+  EXPECT_DOUBLE_EQ(port.opening, -0.47);
+  EXPECT_DOUBLE_EQ(d.opening, 1.0);
+  port = {0.02, 1e7};
+  overlap->shapeValvePort(0.02, 0.03, port, d);
+  EXPECT_DOUBLE_EQ(port.opening, 0.0) << "inside the dead band no oil flows";
+  EXPECT_DOUBLE_EQ(d.opening, 0.0);
+}
+
+TEST(Effects, TankPressureActsOnTheDrainEdgeOnly) {
+  const auto tank = makeLibraryEffect("tank_pressure");
+  ValvePort port{0.5, 50e5}, d;
+  tank->shapeValvePort(0.5, 6e5, port, d);
+  EXPECT_DOUBLE_EQ(port.pressure_drop, 44e5);
+  EXPECT_DOUBLE_EQ(d.pressure_drop, -1.0);
+  port = {-0.5, 70e5};
+  d = {};
+  tank->shapeValvePort(-0.5, 6e5, port, d);
+  EXPECT_DOUBLE_EQ(port.pressure_drop, 70e5) << "the supply edge does not see the tank";
+  EXPECT_DOUBLE_EQ(d.pressure_drop, 0.0);
+}
+
+TEST(CustomFlowEffect, EvaluatesTheExpressionOfTheNamedSignals) {
+  CustomFlowEffect relief("relief_valve", "max(p - 180e5, 0) * (v >= 0)");
+  HydraulicSignals s;
+  s.p = 190e5;
+  s.v = 0.1;
+  EXPECT_DOUBLE_EQ(relief.outflowPerUnit(s), 10e5);
+  s.p = 170e5;
+  EXPECT_DOUBLE_EQ(relief.outflowPerUnit(s), 0.0);
+  EXPECT_EQ(relief.name(), "relief_valve");
+  EXPECT_EQ(relief.parameter().name, "relief_valve_theta");
+  CustomFlowEffect all("all_signals", "p + dp + x + v + u + y + V + t");
+  HydraulicSignals a{1, 2, 3, 4, 5, 6, 7, 8};
+  EXPECT_DOUBLE_EQ(all.outflowPerUnit(a), 36.0);
+}
+
+TEST(CustomFlowEffect, ClonesAreIndependent) {
+  CustomFlowEffect original("q", "2 * p");
+  const auto copy = original.clone();
+  HydraulicSignals s;
+  s.p = 3.0;
+  EXPECT_DOUBLE_EQ(copy->outflowPerUnit(s), 6.0);
+  EXPECT_DOUBLE_EQ(original.outflowPerUnit(s), 6.0);
+}
+
+TEST(CustomFlowEffect, BadInputGivesAClearError) {
+  EXPECT_THROW(CustomFlowEffect("relief", "max(p - , 0)"), std::invalid_argument);
+  EXPECT_THROW(CustomFlowEffect("relief", "pressure * 2"), std::invalid_argument) << "unknown signal";
+  EXPECT_THROW(CustomFlowEffect("leakage", "p"), std::invalid_argument) << "library names are taken";
+  EXPECT_THROW(CustomFlowEffect("2bad", "p"), std::invalid_argument);
+  EXPECT_THROW(CustomFlowEffect("", "p"), std::invalid_argument);
+  try {
+    CustomFlowEffect("relief", "pressure * 2");
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("pressure"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CustomFlowEffect, ParsesNameEqualsExpression) {
+  const auto e = parseCustomEffect("relief=max(p-180e5,0)");
+  EXPECT_EQ(e->name(), "relief");
+  EXPECT_EQ(e->expression(), "max(p-180e5,0)");
+  EXPECT_THROW(parseCustomEffect("relief"), std::invalid_argument);
+  EXPECT_THROW(parseCustomEffect("=p"), std::invalid_argument);
+  EXPECT_THROW(parseCustomEffect("relief="), std::invalid_argument);
+}
+
+TEST(CustomFlowEffect, NonFiniteValuesDoNotLeakIntoTheEstimator) {
+  CustomFlowEffect e("inverse", "1 / x");
+  HydraulicSignals s;
+  s.x = 0.0;
+  EXPECT_DOUBLE_EQ(e.outflowPerUnit(s), 0.0);
+}

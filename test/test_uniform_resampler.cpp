@@ -1,1 +1,153 @@
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "die_cushion_ident/core/uniform_resampler.h"
+
+using namespace die_cushion_ident;
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Feeds all three streams at `rate` Hz from t0 to t1 with linear signals; returns the grid samples.
+std::vector<GridSample> feedLinear(UniformResampler& r, double t0, double t1, double rate, double offset = 0.0) {
+  std::vector<GridSample> out;
+  for (double t = t0; t < t1; t += 1.0 / rate) {
+    r.push(InputStream::kPressure, {t, 1e6 + 1e7 * t, kNaN}, &out);
+    r.push(InputStream::kPosition, {t + offset, 0.1 * (t + offset), 0.1}, &out);
+    r.push(InputStream::kValve, {t + 2 * offset, 5.0 * (t + 2 * offset), 0.5 * (t + 2 * offset)}, &out);
+  }
+  return out;
+}
+}  // namespace
+
+TEST(UniformResampler, RejectsInvalidConfiguration) {
+  UniformResampler::Config c;
+  c.sample_period = 0.0;
+  EXPECT_THROW(UniformResampler{c}, std::invalid_argument);
+  c = {};
+  c.max_gap = c.sample_period;
+  EXPECT_THROW(UniformResampler{c}, std::invalid_argument);
+  c = {};
+  c.restart_jump = c.stale_timeout;
+  EXPECT_THROW(UniformResampler{c}, std::invalid_argument);
+}
+
+TEST(UniformResampler, InterpolatesLinearSignalsExactlyOnAnAlignedGrid) {
+  UniformResampler r({});
+  const auto out = feedLinear(r, 0.0, 1.0, 1000.0, 0.0003);
+  ASSERT_GT(out.size(), 490u);
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const GridSample& g = out[i];
+    EXPECT_NEAR(std::remainder(g.t, 0.002), 0.0, 1e-12) << "grid points sit on multiples of the period";
+    if (i > 0) EXPECT_NEAR(g.t - out[i - 1].t, 0.002, 1e-12);
+    EXPECT_TRUE(g.complete);
+    EXPECT_NEAR(g.p, 1e6 + 1e7 * g.t, 1e-6);
+    EXPECT_NEAR(g.x, 0.1 * g.t, 1e-12);
+    EXPECT_NEAR(g.v, 0.1, 1e-12);
+    EXPECT_NEAR(g.u, 5.0 * g.t, 1e-9);
+    EXPECT_NEAR(g.y, 0.5 * g.t, 1e-9);
+  }
+  EXPECT_NEAR(r.health(InputStream::kPressure).rate(), 1000.0, 1e-6);
+}
+
+TEST(UniformResampler, CountsAndRejectsNonFiniteDuplicateAndOutOfOrderMessages) {
+  UniformResampler r({});
+  std::vector<GridSample> out;
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.010, 1.0, kNaN}, &out), UniformResampler::PushResult::kAccepted);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.010, 2.0, kNaN}, &out), UniformResampler::PushResult::kDuplicate);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.009, 2.0, kNaN}, &out), UniformResampler::PushResult::kOutOfOrder);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.011, kNaN, kNaN}, &out), UniformResampler::PushResult::kNonFinite);
+  EXPECT_EQ(r.push(InputStream::kPressure, {kNaN, 1.0, kNaN}, &out), UniformResampler::PushResult::kNonFinite);
+  EXPECT_EQ(r.push(InputStream::kPressure, {std::numeric_limits<double>::infinity(), 1.0, kNaN}, &out),
+            UniformResampler::PushResult::kNonFinite);
+  const auto& h = r.health(InputStream::kPressure);
+  EXPECT_EQ(h.received, 6u);
+  EXPECT_EQ(h.accepted, 1u);
+  EXPECT_EQ(h.duplicates, 1u);
+  EXPECT_EQ(h.out_of_order, 1u);
+  EXPECT_EQ(h.non_finite, 3u);
+}
+
+TEST(UniformResampler, DoesNotInterpolateAcrossGaps) {
+  UniformResampler r({});
+  std::vector<GridSample> out = feedLinear(r, 0.0, 0.2, 1000.0);
+  // Pressure falls silent for 50 ms (> max_gap of 20 ms, < stale timeout), the others keep going.
+  for (double t = 0.2; t < 0.4; t += 0.001) {
+    if (t < 0.25 || t > 0.3) r.push(InputStream::kPressure, {t, 1.0, kNaN}, &out);
+    r.push(InputStream::kPosition, {t, 0.0, 0.0}, &out);
+    r.push(InputStream::kValve, {t, 0.0, 0.0}, &out);
+  }
+  int incomplete = 0;
+  for (const auto& g : out) {
+    if (g.t > 0.251 && g.t < 0.299) {
+      EXPECT_FALSE(g.complete) << "t = " << g.t;
+      EXPECT_TRUE(std::isnan(g.p));
+      ++incomplete;
+    }
+  }
+  EXPECT_GE(incomplete, 20);
+  EXPECT_EQ(r.health(InputStream::kPressure).gaps, 1u);
+}
+
+TEST(UniformResampler, ASilentStreamIsReportedStaleAndDoesNotBlockTheOthers) {
+  UniformResampler r({});
+  std::vector<GridSample> out;
+  for (double t = 0.0; t < 1.0; t += 0.001) {
+    r.push(InputStream::kPressure, {t, 1e6, kNaN}, &out);
+    r.push(InputStream::kPosition, {t, 0.0, kNaN}, &out);  // the valve topic never arrives
+  }
+  EXPECT_TRUE(r.health(InputStream::kValve).stale);
+  ASSERT_GT(out.size(), 300u) << "the grid must advance without the silent topic";
+  for (const auto& g : out) {
+    EXPECT_FALSE(g.complete);
+    EXPECT_TRUE(std::isnan(g.u));
+    EXPECT_DOUBLE_EQ(g.p, 1e6);
+  }
+}
+
+TEST(UniformResampler, ABackwardJumpRestartsTheGrid) {
+  UniformResampler r({});
+  auto first = feedLinear(r, 100.0, 101.0, 1000.0);
+  ASSERT_FALSE(first.empty());
+  std::vector<GridSample> out;
+  EXPECT_EQ(r.push(InputStream::kPressure, {10.0, 1.0, kNaN}, &out), UniformResampler::PushResult::kRestarted);
+  auto second = feedLinear(r, 10.001, 11.0, 1000.0);
+  ASSERT_FALSE(second.empty());
+  EXPECT_TRUE(second.front().discontinuity) << "downstream filters must be told to start over";
+  EXPECT_LT(second.front().t, 10.01);
+  EXPECT_EQ(r.restarts(), 1u);
+}
+
+TEST(UniformResampler, ALongSilenceOfAllStreamsJumpsTheGridInsteadOfFillingIt) {
+  UniformResampler r({});
+  auto a = feedLinear(r, 0.0, 1.0, 1000.0);
+  auto b = feedLinear(r, 3600.0, 3601.0, 1000.0);  // an hour later
+  EXPECT_LT(b.size(), 600u) << "an hour of silence must not produce 1.8 million empty samples";
+  ASSERT_FALSE(b.empty());
+  EXPECT_TRUE(b.front().discontinuity);
+}
+
+TEST(UniformResampler, MeasuresJitter) {
+  UniformResampler r({});
+  std::vector<GridSample> out;
+  for (int k = 0; k < 2000; ++k) {
+    const double t = k * 0.001 + ((k % 2) ? 0.0001 : 0.0);
+    r.push(InputStream::kPressure, {t, 0.0, kNaN}, &out);
+  }
+  const auto& h = r.health(InputStream::kPressure);
+  EXPECT_NEAR(h.mean_interval, 0.001, 1e-7);
+  EXPECT_NEAR(h.interval_std, 0.0001, 2e-6) << "alternating 0.9/1.1 ms intervals have a 0.1 ms spread";
+  EXPECT_NEAR(h.max_interval, 0.0011, 1e-9);
+}
+
+TEST(UniformResampler, FlushEmitsWhatTheStreamsCover) {
+  UniformResampler r({});
+  auto out = feedLinear(r, 0.0, 0.1, 1000.0, 0.0004);
+  const std::size_t before = out.size();
+  r.flush(&out);
+  EXPECT_GE(out.size(), before);
+  EXPECT_LE(out.back().t, 0.1);
+}

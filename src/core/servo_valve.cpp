@@ -36,15 +36,16 @@ void ServoValve::integrate(double h, double u) {
   const double w2 = omega_ * omega_;
   const double two_d_w = 2.0 * parameters_.damping * omega_;
   const double target = parameters_.gain * u;
-  auto accel = [&](double y, double yd) { return w2 * (target - y) - two_d_w * yd; };
-  const double k1y = y_dot_, k1v = accel(y_, y_dot_);
-  const double k2y = y_dot_ + 0.5 * h * k1v, k2v = accel(y_ + 0.5 * h * k1y, k2y);
-  const double k3y = y_dot_ + 0.5 * h * k2v, k3v = accel(y_ + 0.5 * h * k2y, k3y);
-  const double k4y = y_dot_ + h * k3v, k4v = accel(y_ + h * k3y, k4y);
-  y_ += h / 6.0 * (k1y + 2 * k2y + 2 * k3y + k4y);
-  y_dot_ += h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v);
   const double vmax = parameters_.max_spool_velocity;
-  y_dot_ = std::clamp(y_dot_, -vmax, vmax);
+  // The speed limit acts inside the derivative, so that the position can never move faster than allowed.
+  auto speed = [&](double yd) { return std::clamp(yd, -vmax, vmax); };
+  auto accel = [&](double y, double yd) { return w2 * (target - y) - two_d_w * yd; };
+  const double k1y = speed(y_dot_), k1v = accel(y_, y_dot_);
+  const double v2 = y_dot_ + 0.5 * h * k1v, k2y = speed(v2), k2v = accel(y_ + 0.5 * h * k1y, v2);
+  const double v3 = y_dot_ + 0.5 * h * k2v, k3y = speed(v3), k3v = accel(y_ + 0.5 * h * k2y, v3);
+  const double v4 = y_dot_ + h * k3v, k4y = speed(v4), k4v = accel(y_ + h * k3y, v4);
+  y_ += h / 6.0 * (k1y + 2 * k2y + 2 * k3y + k4y);
+  y_dot_ = speed(y_dot_ + h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v));
   if (std::abs(y_) >= 1.0) {  // against the mechanical stop
     y_ = std::clamp(y_, -1.0, 1.0);
     if (y_ * y_dot_ > 0.0) y_dot_ = 0.0;

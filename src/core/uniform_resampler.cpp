@@ -56,7 +56,7 @@ void UniformResampler::restartGrid() {
 
 void UniformResampler::updateIntervalStatistics(StreamHealth& h, double interval) {
   // Welford's running mean and variance of the message interval.
-  const double n = static_cast<double>(h.accepted);  // intervals seen so far, including this one
+  const double n = static_cast<double>(h.accepted - 1);  // intervals so far: the first message has none
   const double delta = interval - h.mean_interval;
   h.mean_interval += delta / n;
   const double m2 = h.interval_std * h.interval_std * (n - 1.0) + delta * (interval - h.mean_interval);
@@ -96,6 +96,7 @@ UniformResampler::PushResult UniformResampler::push(InputStream stream, const St
   c.has_any = true;
   h.last_stamp = stored.stamp;
   h.stale = false;
+  if (!started_) first_stamp_ = stored.stamp;
   newest_stamp_ = started_ ? std::max(newest_stamp_, stored.stamp) : stored.stamp;
   started_ = true;
   emitReady(out, false);
@@ -167,7 +168,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
         if (interpolate(s, t, &f, &g)) any_bracketed = true;
         continue;
       }
-      const double silent_since = c.has_any ? c.buffer.back().stamp : t;
+      const double silent_since = c.has_any ? c.buffer.back().stamp : first_stamp_;
       h.stale = newest_stamp_ - silent_since >= config_.stale_timeout;
       if (!h.stale && !flushing) must_wait = true;
     }

@@ -14,7 +14,9 @@ VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model, cons
       form_(config.regression_form),
       dt_(config.resampler.sample_period),
       n_(model.parameterCount()),
-      delay_((config.moving_average_width - 1) / 2 + (config.derivative_width - 1) / 2),
+      // The integral form closes an increment one sample late (its quadrature looks one sample ahead).
+      delay_((config.moving_average_width - 1) / 2 + (config.derivative_width - 1) / 2 +
+             (config.regression_form == RegressionForm::kIntegral ? 1 : 0)),
       raw_(delay_, kRawCount),
       increment_window_(config.derivative_width - 1, model.parameterCount() + 2),
       window_average_(config.moving_average_width, model.parameterCount() + 2),
@@ -28,7 +30,7 @@ void VolumeBalanceRegressor::clear() {
   raw_.clear();
   increment_window_.clear();
   window_average_.clear();
-  has_previous_ = false;
+  node_count_ = 0;
   signal_average_.clear();
   derivative_.clear();
   aligned_.clear();
@@ -76,28 +78,45 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
 
 // The balance A dx = sum_j c_j (a_j dp + g_j dt) holds for every increment, so it also holds for any linear
 // filter of the increments: summing d-1 of them and averaging b such sums loses nothing and adds no bias.
+// Quadrature of one increment between samples k-1 and k: the capacitance part by the trapezoid rule
+// (its noise is uncorrelated with dp), the flow part by the 4-point rule on k-2 .. k+1, which is exact for
+// cubics; the 2nd-order midpoint rule biased stiff, fast-controlled cushions (doc/equations.md).
 bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, const ParameterVector& point,
                                           RegressionRow* row) {
-  double* channels = scratch_.data();  // [z, phi_0 .. phi_{n-1}, unusable]
-  const bool have_increment = has_previous_;
-  if (have_increment) {
-    std::fill(scratch_.begin(), scratch_.end(), 0.0);
-    if (usable && previous_usable_) {
-      const double dx = s.x - previous_.x;
-      const double dp = s.p - previous_.p;
-      const HydraulicSignals mid =
-          signalsAt(0.5 * (s.t + previous_.t), 0.5 * (s.p + previous_.p), dp / dt_, 0.5 * (s.x + previous_.x),
-                    dx / dt_, 0.5 * (s.u + previous_.u), 0.5 * (s.y + previous_.y), point);
-      channels[0] = model_.geometry().piston_area * dx;
-      fillColumns(mid, point, dp, dt_, channels + 1);
-    } else {
-      channels[n_ + 1] = 1.0;
-    }
+  if (node_count_ == 4) {
+    for (int i = 0; i < 3; ++i) nodes_[i] = nodes_[i + 1];
+    node_count_ = 3;
   }
-  previous_ = s;
-  previous_usable_ = usable;
-  has_previous_ = true;
-  if (!have_increment) return false;
+  Node& node = nodes_[node_count_];
+  node.sample = s;
+  node.usable = usable;
+  if (usable) {
+    const Node* before = node_count_ > 0 ? &nodes_[node_count_ - 1] : nullptr;
+    const bool have_before = before && before->usable;
+    const double v = have_before ? (s.x - before->sample.x) / dt_ : 0.0;
+    const double dp = have_before ? (s.p - before->sample.p) / dt_ : 0.0;
+    model_.regressionColumns(signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, point), point, node.a, node.g);
+  }
+  ++node_count_;
+  if (node_count_ < 4) return false;
+
+  // The increment between nodes 1 and 2, with nodes 0 and 3 as the outer quadrature points.
+  double* channels = scratch_.data();  // [z, phi_0 .. phi_{n-1}, unusable]
+  std::fill(scratch_.begin(), scratch_.end(), 0.0);
+  if (nodes_[0].usable && nodes_[1].usable && nodes_[2].usable && nodes_[3].usable) {
+    const GridSample& s1 = nodes_[1].sample;
+    const GridSample& s2 = nodes_[2].sample;
+    const double dp = s2.p - s1.p;
+    channels[0] = model_.geometry().piston_area * (s2.x - s1.x);
+    const double w_outer = -dt_ / 24.0, w_inner = 13.0 * dt_ / 24.0;
+    for (int j = 0; j < n_; ++j) {
+      const double capacitive = 0.5 * (nodes_[1].a[j] + nodes_[2].a[j]) * dp;
+      const double flow = w_outer * (nodes_[0].g[j] + nodes_[3].g[j]) + w_inner * (nodes_[1].g[j] + nodes_[2].g[j]);
+      channels[j + 1] = capacitive + flow;
+    }
+  } else {
+    channels[n_ + 1] = 1.0;
+  }
 
   increment_window_.push(channels);
   if (!increment_window_.full()) return false;

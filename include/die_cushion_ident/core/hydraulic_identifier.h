@@ -67,6 +67,7 @@ class HydraulicIdentifier {
   std::unique_ptr<VolumeBalanceRegressor> regressor_;
   std::unique_ptr<RecursiveLeastSquares> rls_;
   ServoValve spool_predictor_;
+  double previous_command_ = 0.0;  // [V]
   ParameterVector scale_;       // coefficient = normalised parameter * scale
   double flow_scale_;           // [m^3/s] divides both sides of the equation
   double overlap_factor_;       // rows sharing data per identification step

@@ -16,7 +16,7 @@ using CovarianceMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0
 ///   e_k     = z_k - phi_k^T theta_{k-1}                     (a-priori error)
 ///   u       = P_{k-1} phi_k,   s = lambda + phi_k^T u
 ///   theta_k = theta_{k-1} + u e_k / s
-///   P_k     = (P_{k-1} - u u^T / s) / lambda                (symmetric form, shared/NUMERICS.md)
+///   P_k     = (P_{k-1} - u u^T / s) / lambda, computed in Joseph form (symmetric, positive definite)
 ///
 /// Covariance bound (the anti-windup remedy): forgetting inflates P by 1/lambda per update in every
 /// direction the data do not excite, so with lambda = 0.998 and no excitation P grows as 1.002^k and the

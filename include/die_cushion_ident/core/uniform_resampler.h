@@ -93,6 +93,7 @@ class UniformResampler {
   std::array<Channel, kInputStreamCount> channels_;
   std::array<StreamHealth, kInputStreamCount> health_;
   double newest_stamp_ = 0.0;
+  double first_stamp_ = 0.0;  // first message since the (re)start
   bool started_ = false;
   bool grid_started_ = false;
   bool pending_discontinuity_ = false;

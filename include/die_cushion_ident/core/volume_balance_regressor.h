@@ -51,11 +51,17 @@ class VolumeBalanceRegressor {
   DelayLine raw_;  // t, p, x, u, y at the row's time
 
   // Integral form: increments -> window sum over d-1 increments -> moving average over b.
+  // The last four samples with their columns, newest last, for the 4-point flow quadrature.
+  struct Node {
+    GridSample sample;
+    bool usable = false;
+    double a[kMaxParameters];
+    double g[kMaxParameters];
+  };
   SlidingWindowSum increment_window_;
   MovingAverageFilter window_average_;
-  bool has_previous_ = false;
-  GridSample previous_;
-  bool previous_usable_ = false;
+  Node nodes_[4];
+  int node_count_ = 0;
 
   // Derivative form: moving average of signals -> symmetric derivative; the rest delayed to line up.
   MovingAverageFilter signal_average_;
