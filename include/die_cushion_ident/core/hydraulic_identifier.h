@@ -68,6 +68,8 @@ class HydraulicIdentifier {
   std::unique_ptr<RecursiveLeastSquares> rls_;
   ServoValve spool_predictor_;
   double previous_command_ = 0.0;  // [V]
+  double last_measured_spool_ = 0.0;
+  bool predictor_following_ = false;  // the valve model is integrating (spool not measured)
   ParameterVector scale_;       // coefficient = normalised parameter * scale
   double flow_scale_;           // [m^3/s] divides both sides of the equation
   double overlap_factor_;       // rows sharing data per identification step
