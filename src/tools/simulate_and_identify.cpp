@@ -62,7 +62,10 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (arg == "--cycles") {
+    if (arg == "--help" || arg == "-h") {
+      usage();
+      return 0;
+    } else if (arg == "--cycles") {
       cycles = std::atoi(next().c_str());
     } else if (arg == "--plant-effects") {
       plant_config.effects = splitList(next());
