@@ -9,10 +9,10 @@ export PATH="/usr/bin:$PATH"
 
 APT_PACKAGES=(
   build-essential cmake ros-core-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
-  libdiagnostic-updater-dev libeigen3-dev libmuparser-dev libyaml-cpp-dev libceres-dev
+  libdiagnostic-updater-dev libeigen3-dev libmuparser-dev libyaml-cpp-dev
   libgtest-dev googletest libbenchmark-dev
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch rosbash
-  python3-matplotlib python3-yaml python3-numpy
+  python3-yaml python3-numpy
 )
 
 log() { printf '\033[1m[die_cushion_ident]\033[0m %s\n' "$*" >&2; }
