@@ -49,7 +49,9 @@ static const ParameterEstimate& find(const HydraulicEstimate& estimate, const st
   throw std::runtime_error("no estimate named " + name);
 }
 
-double estimateOf(const HydraulicEstimate& estimate, const std::string& name) { return find(estimate, name).value; }
+double estimateOf(const HydraulicEstimate& estimate, const std::string& name) {
+  return find(estimate, name).value;
+}
 double stdOf(const HydraulicEstimate& estimate, const std::string& name) { return find(estimate, name).std; }
 
 }  // namespace testing

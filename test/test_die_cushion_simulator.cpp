@@ -81,7 +81,8 @@ TEST(DieCushionSimulator, StartOfTheReturnStrokeCavitates) {
   double lowest_in_return = 1e9;
   while (sim.state().t < sim.program().cycleDuration()) {
     sim.step(nullptr);
-    if (sim.state().phase == StrokePhase::kReturn) lowest_in_return = std::min(lowest_in_return, sim.state().p);
+    if (sim.state().phase == StrokePhase::kReturn)
+      lowest_in_return = std::min(lowest_in_return, sim.state().p);
   }
   EXPECT_LT(lowest_in_return, 2e5) << "pressure falls near zero when the cushion starts upwards";
 }

@@ -9,7 +9,8 @@ using namespace die_cushion_ident;
 
 namespace {
 HydraulicModel fullModel() {
-  return HydraulicModel::fromNames(CylinderGeometry{}, {"leakage", "entrained_air", "valve_overlap", "tank_pressure"},
+  return HydraulicModel::fromNames(CylinderGeometry{},
+                                   {"leakage", "entrained_air", "valve_overlap", "tank_pressure"},
                                    {"relief=max(p - 150e5, 0)"});
 }
 
@@ -54,7 +55,8 @@ TEST(HydraulicModel, CoefficientsAndPhysicalParametersRoundTripWithAConsistentJa
     c2(j) += h;
     const ParameterVector numeric = (m.physicalFromCoefficients(c2) - back) / h;
     for (int i = 0; i < m.parameterCount(); ++i) {
-      EXPECT_NEAR(J(i, j), numeric(i), 1e-4 * std::abs(numeric(i)) + 1e-12 * std::abs(J(i, i))) << i << "," << j;
+      EXPECT_NEAR(J(i, j), numeric(i), 1e-4 * std::abs(numeric(i)) + 1e-12 * std::abs(J(i, i)))
+          << i << "," << j;
     }
   }
 }

@@ -68,7 +68,8 @@ TEST(IdentificationConfig, NumericKeysSetTheirFields) {
   EXPECT_DOUBLE_EQ(c.geometry.piston_area, 0.1);
   EXPECT_EQ(c.moving_average_width, 21);
   EXPECT_DOUBLE_EQ(c.resampler.max_gap, 0.05);
-  EXPECT_FALSE(setNumericConfigValue(c, "forgeting_factor", 0.99)) << "unknown keys are reported, not ignored";
+  EXPECT_FALSE(setNumericConfigValue(c, "forgeting_factor", 0.99))
+      << "unknown keys are reported, not ignored";
   EXPECT_TRUE(setNumericConfigValue(c, "derivative_width", 24.5));
   EXPECT_TRUE(mentions(c.validate(), "derivative_width")) << "a fractional width is invalid, not rounded";
   for (const auto& key : numericConfigKeys()) {

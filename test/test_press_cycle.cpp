@@ -44,8 +44,9 @@ TEST(PressCycleProgram, PhasesComeInTheStrokesOrder) {
     const auto phase = program.at(t).phase;
     if (seen.empty() || seen.back() != phase) seen.push_back(phase);
   }
-  const std::vector<StrokePhase> expected{StrokePhase::kRest,       StrokePhase::kImpact,  StrokePhase::kDrawing,
-                                          StrokePhase::kBottomHold, StrokePhase::kRelease, StrokePhase::kReturn};
+  const std::vector<StrokePhase> expected{StrokePhase::kRest,    StrokePhase::kImpact,
+                                          StrokePhase::kDrawing, StrokePhase::kBottomHold,
+                                          StrokePhase::kRelease, StrokePhase::kReturn};
   EXPECT_EQ(seen, expected);
   EXPECT_STREQ(strokePhaseName(StrokePhase::kBottomHold), "bottom_hold");
 }

@@ -59,7 +59,8 @@ TEST(RecursiveLeastSquares, RecoversParametersFromNoiseFreeData) {
     for (int i = 0; i < 4; ++i) phi(i) = n(rng);
     rls.update(phi, phi.dot(truth));
   }
-  EXPECT_LT((rls.parameters() - truth).norm(), 1e-5) << "noise-free LS is exact up to the prior's weight (1e-4)";
+  EXPECT_LT((rls.parameters() - truth).norm(), 1e-5)
+      << "noise-free LS is exact up to the prior's weight (1e-4)";
 }
 
 TEST(RecursiveLeastSquares, StaysSymmetricPositiveDefiniteOverAMillionForgettingUpdates) {
@@ -76,7 +77,8 @@ TEST(RecursiveLeastSquares, StaysSymmetricPositiveDefiniteOverAMillionForgetting
   }
   EXPECT_TRUE(symmetricPositiveDefinite(rls.covariance()));
   EXPECT_EQ(rls.covarianceResets(), 0u);
-  EXPECT_LT((rls.parameters() - truth).cwiseAbs().maxCoeff(), 0.5) << "estimate must still track after 1e6 steps";
+  EXPECT_LT((rls.parameters() - truth).cwiseAbs().maxCoeff(), 0.5)
+      << "estimate must still track after 1e6 steps";
   EXPECT_NEAR(rls.parameters()(3), 3.0, 1e-4);
 }
 

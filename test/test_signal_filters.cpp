@@ -17,7 +17,8 @@ TEST(MovingAverageFilter, RampComesOutDelayedByHalfTheWidth) {
   for (int k = 0; k < 100; ++k) {
     const bool ready = f.push(2.0 * k);
     EXPECT_EQ(ready, k >= 30);
-    if (ready) EXPECT_NEAR(f.output(0), 2.0 * (k - 15), 1e-12) << "a ramp is reproduced exactly, 15 samples late";
+    if (ready)
+      EXPECT_NEAR(f.output(0), 2.0 * (k - 15), 1e-12) << "a ramp is reproduced exactly, 15 samples late";
   }
 }
 

@@ -12,7 +12,8 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Feeds all three streams at `rate` Hz from t0 to t1 with linear signals; returns the grid samples.
-std::vector<GridSample> feedLinear(UniformResampler& r, double t0, double t1, double rate, double offset = 0.0) {
+std::vector<GridSample> feedLinear(UniformResampler& r, double t0, double t1, double rate,
+                                   double offset = 0.0) {
   std::vector<GridSample> out;
   for (double t = t0; t < t1; t += 1.0 / rate) {
     r.push(InputStream::kPressure, {t, 1e6 + 1e7 * t, kNaN}, &out);
@@ -56,11 +57,16 @@ TEST(UniformResampler, InterpolatesLinearSignalsExactlyOnAnAlignedGrid) {
 TEST(UniformResampler, CountsAndRejectsNonFiniteDuplicateAndOutOfOrderMessages) {
   UniformResampler r({});
   std::vector<GridSample> out;
-  EXPECT_EQ(r.push(InputStream::kPressure, {0.010, 1.0, kNaN}, &out), UniformResampler::PushResult::kAccepted);
-  EXPECT_EQ(r.push(InputStream::kPressure, {0.010, 2.0, kNaN}, &out), UniformResampler::PushResult::kDuplicate);
-  EXPECT_EQ(r.push(InputStream::kPressure, {0.009, 2.0, kNaN}, &out), UniformResampler::PushResult::kOutOfOrder);
-  EXPECT_EQ(r.push(InputStream::kPressure, {0.011, kNaN, kNaN}, &out), UniformResampler::PushResult::kNonFinite);
-  EXPECT_EQ(r.push(InputStream::kPressure, {kNaN, 1.0, kNaN}, &out), UniformResampler::PushResult::kNonFinite);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.010, 1.0, kNaN}, &out),
+            UniformResampler::PushResult::kAccepted);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.010, 2.0, kNaN}, &out),
+            UniformResampler::PushResult::kDuplicate);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.009, 2.0, kNaN}, &out),
+            UniformResampler::PushResult::kOutOfOrder);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.011, kNaN, kNaN}, &out),
+            UniformResampler::PushResult::kNonFinite);
+  EXPECT_EQ(r.push(InputStream::kPressure, {kNaN, 1.0, kNaN}, &out),
+            UniformResampler::PushResult::kNonFinite);
   EXPECT_EQ(r.push(InputStream::kPressure, {std::numeric_limits<double>::infinity(), 1.0, kNaN}, &out),
             UniformResampler::PushResult::kNonFinite);
   const auto& h = r.health(InputStream::kPressure);
@@ -113,7 +119,8 @@ TEST(UniformResampler, ABackwardJumpRestartsTheGrid) {
   auto first = feedLinear(r, 100.0, 101.0, 1000.0);
   ASSERT_FALSE(first.empty());
   std::vector<GridSample> out;
-  EXPECT_EQ(r.push(InputStream::kPressure, {10.0, 1.0, kNaN}, &out), UniformResampler::PushResult::kRestarted);
+  EXPECT_EQ(r.push(InputStream::kPressure, {10.0, 1.0, kNaN}, &out),
+            UniformResampler::PushResult::kRestarted);
   auto second = feedLinear(r, 10.001, 11.0, 1000.0);
   ASSERT_FALSE(second.empty());
   EXPECT_TRUE(second.front().discontinuity) << "downstream filters must be told to start over";

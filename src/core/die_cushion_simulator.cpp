@@ -70,10 +70,12 @@ DieCushionSimulator::DieCushionSimulator(const SimulatorConfig& config)
 void DieCushionSimulator::setTrueParameter(const std::string& name, double value) {
   const int i = indexOf(model_, name);
   if (i < 0) {
-    throw std::invalid_argument("simulator: '" + name + "' is not a parameter of the simulated model (effects: " +
+    throw std::invalid_argument("simulator: '" + name +
+                                "' is not a parameter of the simulated model (effects: " +
                                 std::to_string(model_.effectCount()) + " active)");
   }
-  if (!std::isfinite(value)) throw std::invalid_argument("simulator: parameter '" + name + "' must be finite");
+  if (!std::isfinite(value))
+    throw std::invalid_argument("simulator: parameter '" + name + "' must be finite");
   true_parameters_(i) = value;
 }
 
@@ -160,7 +162,8 @@ void DieCushionSimulator::sampleSensors(std::vector<SimulatedMeasurement>* out) 
         break;
       case InputStream::kValve:
         m.sample.first = state_.u;
-        m.sample.second = sc.measure_spool ? std::clamp(state_.y + sc.spool_noise * normal_(rng_), -1.0, 1.0) : kNaN;
+        m.sample.second =
+            sc.measure_spool ? std::clamp(state_.y + sc.spool_noise * normal_(rng_), -1.0, 1.0) : kNaN;
         break;
     }
     out->push_back(m);

@@ -48,8 +48,9 @@ HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
   regressor_ = std::make_unique<VolumeBalanceRegressor>(model_, config_);
   // Successive rows share (b + d - 1) samples; rows one identification step apart are therefore correlated
   // and the RLS covariance, which assumes independent errors, is scaled by the number that overlap.
-  overlap_factor_ = std::max(
-      1.0, static_cast<double>(config_.moving_average_width + config_.derivative_width - 1) / config_.decimation());
+  overlap_factor_ =
+      std::max(1.0, static_cast<double>(config_.moving_average_width + config_.derivative_width - 1) /
+                        config_.decimation());
   refreshLinearisationPoint();
 }
 
@@ -165,12 +166,14 @@ HydraulicEstimate HydraulicIdentifier::estimate() const {
   const ParameterVector c = rls_->parameters().cwiseProduct(scale_);
   CovarianceMatrix J;
   const ParameterVector physical = model_.physicalFromCoefficients(c, &J);
-  const CovarianceMatrix coefficient_covariance = scale_.asDiagonal() * rls_->covariance() * scale_.asDiagonal() *
+  const CovarianceMatrix coefficient_covariance = scale_.asDiagonal() * rls_->covariance() *
+                                                  scale_.asDiagonal() *
                                                   (rls_->residualVariance() * overlap_factor_);
   const CovarianceMatrix physical_covariance = J * coefficient_covariance * J.transpose();
   for (int i = 0; i < n; ++i) {
     const auto& info = model_.parameterInfos()[i];
-    e.parameters.push_back({info.name, info.unit, physical(i), std::sqrt(std::max(physical_covariance(i, i), 0.0))});
+    e.parameters.push_back(
+        {info.name, info.unit, physical(i), std::sqrt(std::max(physical_covariance(i, i), 0.0))});
   }
   return e;
 }

@@ -15,7 +15,9 @@ namespace {
 // the tank pressure, where the model is not trusted and the identifier excludes them anyway.
 constexpr double kMinimumLinearisationDrop = 1e5;  // [Pa]
 
-double signedSqrtFlow(const ValvePort& port) { return port.opening * std::sqrt(std::max(port.pressure_drop, 0.0)); }
+double signedSqrtFlow(const ValvePort& port) {
+  return port.opening * std::sqrt(std::max(port.pressure_drop, 0.0));
+}
 }  // namespace
 
 HydraulicModel::HydraulicModel(const CylinderGeometry& geometry, std::vector<std::unique_ptr<Effect>> effects)
@@ -39,7 +41,8 @@ HydraulicModel::HydraulicModel(const CylinderGeometry& geometry, std::vector<std
   rebuildInfos();
 }
 
-HydraulicModel::HydraulicModel(const HydraulicModel& other) : geometry_(other.geometry_), infos_(other.infos_) {
+HydraulicModel::HydraulicModel(const HydraulicModel& other)
+    : geometry_(other.geometry_), infos_(other.infos_) {
   for (const auto& e : other.effects_) effects_.push_back(e->clone());
 }
 
@@ -48,7 +51,8 @@ HydraulicModel& HydraulicModel::operator=(const HydraulicModel& other) {
   return *this;
 }
 
-HydraulicModel HydraulicModel::fromNames(const CylinderGeometry& geometry, const std::vector<std::string>& effects,
+HydraulicModel HydraulicModel::fromNames(const CylinderGeometry& geometry,
+                                         const std::vector<std::string>& effects,
                                          const std::vector<std::string>& custom_effects) {
   std::vector<std::unique_ptr<Effect>> list;
   for (const auto& name : effects) list.push_back(makeLibraryEffect(name));
@@ -129,7 +133,7 @@ void HydraulicModel::regressionColumns(const HydraulicSignals& s, const Paramete
   std::fill(a, a + n, 0.0);
   std::fill(g, g + n, 0.0);
   a[kBulkModulus] = geometry_.piston_area * (geometry_.stroke_length - s.x);  // coefficient 1/K'
-  a[kDeadVolume] = 1.0;                                                        // coefficient V_dead/K'
+  a[kDeadVolume] = 1.0;                                                       // coefficient V_dead/K'
 
   // Valve flow q(y, p; nu) at the linearisation point, and its slope in each valve-shape parameter nu_i:
   // K_v q(nu) ~ K_v [q(nu^) - sum nu^_i dq/dnu_i] + sum (K_v nu_i) dq/dnu_i.
@@ -152,7 +156,8 @@ void HydraulicModel::regressionColumns(const HydraulicSignals& s, const Paramete
   for (int i = 0; i < effectCount(); ++i) {
     const int k = kFirstEffect + i;
     if (effects_[i]->coupling() != Effect::Coupling::kValveShape) continue;
-    const double dq = derivative_of[k].opening * root + port.opening * derivative_of[k].pressure_drop * half_inverse_root;
+    const double dq =
+        derivative_of[k].opening * root + port.opening * derivative_of[k].pressure_drop * half_inverse_root;
     g[k] = dq;
     q_base -= linearisation_point(k) * dq;
   }
@@ -167,12 +172,13 @@ ParameterVector HydraulicModel::coefficientsFromPhysical(const ParameterVector& 
   for (int i = 0; i < effectCount(); ++i) {
     const int k = kFirstEffect + i;
     c(k) = effects_[i]->coupling() == Effect::Coupling::kValveShape ? physical(kValveFlowGain) * physical(k)
-                                                                     : physical(k);
+                                                                    : physical(k);
   }
   return c;
 }
 
-ParameterVector HydraulicModel::physicalFromCoefficients(const ParameterVector& c, CovarianceMatrix* J) const {
+ParameterVector HydraulicModel::physicalFromCoefficients(const ParameterVector& c,
+                                                         CovarianceMatrix* J) const {
   const int n = parameterCount();
   ParameterVector phys(n);
   const double inv_K = c(kBulkModulus);

@@ -55,7 +55,8 @@ const NumericKey kNumericKeys[] = {
 
 class Checker {
  public:
-  void range(const char* name, double value, double low, double high, const char* unit, bool low_open = false) {
+  void range(const char* name, double value, double low, double high, const char* unit,
+             bool low_open = false) {
     const bool ok = std::isfinite(value) && (low_open ? value > low : value >= low) && value <= high;
     if (!ok) {
       std::ostringstream s;
@@ -67,7 +68,8 @@ class Checker {
   void oddWidth(const char* name, int value, int low, int high) {
     if (value < low || value > high || value % 2 == 0) {
       std::ostringstream s;
-      s << name << " = " << value << " is invalid: allowed odd integers in [" << low << ", " << high << "] samples";
+      s << name << " = " << value << " is invalid: allowed odd integers in [" << low << ", " << high
+        << "] samples";
       errors.push_back(s.str());
     }
   }
@@ -112,7 +114,8 @@ std::vector<std::string> IdentificationConfig::validate() const {
   c.oddWidth("moving_average_width", moving_average_width, 1, 1001);
   c.oddWidth("derivative_width", derivative_width, 3, 1001);
   c.range("identification_period", identification_period, resampler.sample_period, 10.0, "s");
-  if (std::isfinite(identification_period) && std::isfinite(resampler.sample_period) && resampler.sample_period > 0 &&
+  if (std::isfinite(identification_period) && std::isfinite(resampler.sample_period) &&
+      resampler.sample_period > 0 &&
       std::abs(identification_period / resampler.sample_period - decimation()) > 1e-6) {
     c.errors.push_back("identification_period = " + std::to_string(identification_period) +
                        " is invalid: must be a whole multiple of sample_period = " +
@@ -143,7 +146,8 @@ std::vector<std::string> IdentificationConfig::validate() const {
           c.errors.push_back(s.str());
         }
       }
-      if (!known) c.errors.push_back("initial value given for '" + name + "', which is not a parameter of the model");
+      if (!known)
+        c.errors.push_back("initial value given for '" + name + "', which is not a parameter of the model");
     }
   } catch (const std::exception& e) {
     c.errors.push_back(e.what());

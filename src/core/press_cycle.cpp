@@ -50,9 +50,10 @@ PressCycleProgram::PressCycleProgram(const PressCycleConfig& c) : config_(c) {
 }
 
 void PressCycleProgram::add(StrokePhase phase, double duration, double v0, double v1, double p0, double p1) {
-  const double x0 = segments_.empty() ? 0.0
-                                      : segments_.back().x0 + 0.5 * (segments_.back().v0 + segments_.back().v1) *
-                                                                  segments_.back().duration;
+  const double x0 = segments_.empty()
+                        ? 0.0
+                        : segments_.back().x0 +
+                              0.5 * (segments_.back().v0 + segments_.back().v1) * segments_.back().duration;
   segments_.push_back({phase, duration_, duration, v0, v1, p0, p1, x0});
   duration_ += duration;
 }
@@ -72,8 +73,8 @@ PressCycleProgram::Point PressCycleProgram::at(double t) const {
   const double f = (seg->duration > 0.0) ? tau / seg->duration : 1.0;
   // Cosine velocity ramp: v = v0 + (v1 - v0) (1 - cos(pi f)) / 2, integrated in closed form.
   point.v = seg->v0 + (seg->v1 - seg->v0) * 0.5 * (1.0 - std::cos(M_PI * f));
-  point.x = seg->x0 + seg->v0 * tau +
-            0.5 * (seg->v1 - seg->v0) * (tau - seg->duration / M_PI * std::sin(M_PI * f));
+  point.x =
+      seg->x0 + seg->v0 * tau + 0.5 * (seg->v1 - seg->v0) * (tau - seg->duration / M_PI * std::sin(M_PI * f));
   point.x = std::max(point.x, 0.0);
   point.pressure_setpoint = seg->p0 + (seg->p1 - seg->p0) * f;
   point.phase = seg->phase;

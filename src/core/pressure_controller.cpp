@@ -12,7 +12,8 @@ PressureController::PressureController(const PressureControllerConfig& config, d
 double PressureController::update(double dt, double p_measured, double p_setpoint, double v) {
   const double displaced_flow = piston_area_ * v;
   const double port_drop = displaced_flow >= 0.0 ? p_setpoint : supply_pressure_ - p_setpoint;
-  const double feed_forward = displaced_flow / (config_.nominal_flow_gain * std::sqrt(std::max(port_drop, 1e5)));
+  const double feed_forward =
+      displaced_flow / (config_.nominal_flow_gain * std::sqrt(std::max(port_drop, 1e5)));
   const double error = std::isfinite(p_measured) ? p_measured - p_setpoint : 0.0;
   double y = feed_forward + config_.proportional_gain * error + config_.integral_gain * integral_;
   const double y_limit = config_.max_voltage * config_.nominal_valve_gain;

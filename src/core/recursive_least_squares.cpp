@@ -28,7 +28,8 @@ RecursiveLeastSquares::RecursiveLeastSquares(const ParameterVector& initial_para
   }
   if (!initial_covariance.isApprox(initial_covariance.transpose()) ||
       initial_covariance.llt().info() != Eigen::Success) {
-    throw std::invalid_argument("RecursiveLeastSquares: initial covariance must be symmetric positive definite");
+    throw std::invalid_argument(
+        "RecursiveLeastSquares: initial covariance must be symmetric positive definite");
   }
   reset();
 }

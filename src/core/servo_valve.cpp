@@ -8,7 +8,8 @@ namespace die_cushion_ident {
 
 ServoValve::ServoValve(const ServoValveParameters& parameters, double max_step)
     : parameters_(parameters), max_step_(max_step), omega_(2.0 * M_PI * parameters.natural_frequency) {
-  if (!(parameters.natural_frequency > 0.0)) throw std::invalid_argument("valve natural_frequency must be > 0 Hz");
+  if (!(parameters.natural_frequency > 0.0))
+    throw std::invalid_argument("valve natural_frequency must be > 0 Hz");
   if (!(parameters.damping > 0.0)) throw std::invalid_argument("valve damping must be > 0");
   if (!(parameters.dead_time >= 0.0)) throw std::invalid_argument("valve dead_time must be >= 0 s");
   if (!std::isfinite(parameters.gain)) throw std::invalid_argument("valve gain must be finite");

@@ -27,8 +27,10 @@ UniformResampler::UniformResampler(const Config& config) : config_(config) {
   if (!(config.sample_period > 0.0) || !std::isfinite(config.sample_period)) {
     throw std::invalid_argument("sample_period must be > 0 s");
   }
-  if (!(config.max_gap > config.sample_period)) throw std::invalid_argument("max_gap must exceed sample_period");
-  if (!(config.stale_timeout >= config.max_gap)) throw std::invalid_argument("stale_timeout must be >= max_gap");
+  if (!(config.max_gap > config.sample_period))
+    throw std::invalid_argument("max_gap must exceed sample_period");
+  if (!(config.stale_timeout >= config.max_gap))
+    throw std::invalid_argument("stale_timeout must be >= max_gap");
   if (!(config.restart_jump > config.stale_timeout)) {
     throw std::invalid_argument("restart_jump must exceed stale_timeout");
   }
@@ -143,7 +145,8 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
       earliest_first = std::min(earliest_first, c.buffer.front().stamp);
     }
     if (speaking == 0) return;
-    if (speaking < kInputStreamCount && newest_stamp_ - earliest_first < config_.stale_timeout && !flushing) return;
+    if (speaking < kInputStreamCount && newest_stamp_ - earliest_first < config_.stale_timeout && !flushing)
+      return;
     next_index_ = static_cast<std::int64_t>(std::ceil(latest_first / dt - 1e-9));
     grid_started_ = true;
   }

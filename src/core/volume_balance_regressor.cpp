@@ -9,7 +9,8 @@ namespace {
 enum RawChannel { kT, kP, kX, kU, kY, kRawCount };
 }
 
-VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model, const IdentificationConfig& config)
+VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model,
+                                               const IdentificationConfig& config)
     : model_(model),
       form_(config.regression_form),
       dt_(config.resampler.sample_period),
@@ -37,8 +38,8 @@ void VolumeBalanceRegressor::clear() {
   span_flags_.clear();
 }
 
-HydraulicSignals VolumeBalanceRegressor::signalsAt(double t, double p, double dp, double x, double v, double u,
-                                                   double y, const ParameterVector& point) const {
+HydraulicSignals VolumeBalanceRegressor::signalsAt(double t, double p, double dp, double x, double v,
+                                                   double u, double y, const ParameterVector& point) const {
   HydraulicSignals s;
   s.t = t;
   s.p = p;
@@ -111,7 +112,8 @@ bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, cons
     const double w_outer = -dt_ / 24.0, w_inner = 13.0 * dt_ / 24.0;
     for (int j = 0; j < n_; ++j) {
       const double capacitive = 0.5 * (nodes_[1].a[j] + nodes_[2].a[j]) * dp;
-      const double flow = w_outer * (nodes_[0].g[j] + nodes_[3].g[j]) + w_inner * (nodes_[1].g[j] + nodes_[2].g[j]);
+      const double flow =
+          w_outer * (nodes_[0].g[j] + nodes_[3].g[j]) + w_inner * (nodes_[1].g[j] + nodes_[2].g[j]);
       channels[j + 1] = capacitive + flow;
     }
   } else {

@@ -80,11 +80,13 @@ int main(int argc, char** argv) {
       config.forgetting_factor = std::atof(next().c_str());
     } else if (arg == "--noise-free") {
       plant_config.sensors.pressure_noise = plant_config.sensors.position_noise = 0.0;
-      plant_config.sensors.velocity_noise = plant_config.sensors.spool_noise = plant_config.sensors.jitter = 0.0;
+      plant_config.sensors.velocity_noise = plant_config.sensors.spool_noise = plant_config.sensors.jitter =
+          0.0;
     } else if (arg == "--set") {
       const std::string kv = next();
       const auto eq = kv.find('=');
-      if (eq == std::string::npos || !setNumericConfigValue(config, kv.substr(0, eq), std::atof(kv.c_str() + eq + 1))) {
+      if (eq == std::string::npos ||
+          !setNumericConfigValue(config, kv.substr(0, eq), std::atof(kv.c_str() + eq + 1))) {
         std::cerr << "--set takes KEY=VALUE with a numeric configuration key\n";
         return 2;
       }
@@ -128,14 +130,17 @@ int main(int argc, char** argv) {
       }
       const auto e = pipeline.identifier().estimate();
       std::printf("cycle %2d: K' = %.4g Pa, K_v = %.4g, V_dead = %.4g m^3, dp/dt error rms %.3g bar/s\n", k,
-                  e.parameters[0].value, e.parameters[1].value, e.parameters[2].value, e.equation_error_rms / 1e5);
+                  e.parameters[0].value, e.parameters[1].value, e.parameters[2].value,
+                  e.equation_error_rms / 1e5);
     }
     pipeline.flush();
     const auto e = pipeline.identifier().estimate();
-    std::printf("\nidentified after %d cycles (%llu RLS updates, %llu steps skipped in the dead zone, %llu with "
-                "unusable samples):\n",
-                cycles, static_cast<unsigned long long>(e.updates), static_cast<unsigned long long>(e.skipped_unexcited),
-                static_cast<unsigned long long>(e.skipped_invalid));
+    std::printf(
+        "\nidentified after %d cycles (%llu RLS updates, %llu steps skipped in the dead zone, %llu with "
+        "unusable samples):\n",
+        cycles, static_cast<unsigned long long>(e.updates),
+        static_cast<unsigned long long>(e.skipped_unexcited),
+        static_cast<unsigned long long>(e.skipped_invalid));
     printTable(plant, e);
   } catch (const std::exception& ex) {
     std::cerr << "error: " << ex.what() << "\n";

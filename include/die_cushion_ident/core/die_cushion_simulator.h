@@ -17,17 +17,17 @@ namespace die_cushion_ident {
 
 /// Sensors of the simulated cushion: Gaussian noise, per-stream rates and sampling-instant jitter.
 struct SensorConfig {
-  double pressure_noise = 0.2e5;   ///< [Pa] standard deviation
-  double position_noise = 2e-6;    ///< [m]
-  double velocity_noise = 1e-4;    ///< [m/s]
-  double spool_noise = 0.002;      ///< [-]
-  double pressure_rate = 1000.0;   ///< [Hz]
+  double pressure_noise = 0.2e5;  ///< [Pa] standard deviation
+  double position_noise = 2e-6;   ///< [m]
+  double velocity_noise = 1e-4;   ///< [m/s]
+  double spool_noise = 0.002;     ///< [-]
+  double pressure_rate = 1000.0;  ///< [Hz]
   double position_rate = 1000.0;
   double valve_rate = 1000.0;
-  double jitter = 5e-5;            ///< [s] standard deviation of the sampling instant
-  bool publish_velocity = true;    ///< JointState velocity[0] present
-  bool measure_spool = true;       ///< spool position measured (else NaN)
-  double drop_probability = 0.0;   ///< chance that a message is lost
+  double jitter = 5e-5;           ///< [s] standard deviation of the sampling instant
+  bool publish_velocity = true;   ///< JointState velocity[0] present
+  bool measure_spool = true;      ///< spool position measured (else NaN)
+  double drop_probability = 0.0;  ///< chance that a message is lost
 };
 
 struct SimulatorConfig {

@@ -8,7 +8,8 @@
 
 namespace die_cushion_ident {
 
-/// A physically named parameter with its SI unit and a typical magnitude (used for scaling and as default start).
+/// A physically named parameter with its SI unit and a typical magnitude (used for scaling and as default
+/// start).
 struct ParameterInfo {
   std::string name;
   std::string unit;

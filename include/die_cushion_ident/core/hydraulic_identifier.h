@@ -23,7 +23,7 @@ struct ParameterEstimate {
 
 /// Snapshot of the hydraulic identification.
 struct HydraulicEstimate {
-  double t = 0.0;                             ///< time of the newest row used [s]
+  double t = 0.0;  ///< time of the newest row used [s]
   std::vector<std::string> effects;
   std::vector<ParameterEstimate> parameters;  ///< in HydraulicModel parameter order
   std::uint64_t updates = 0;                  ///< RLS updates so far
@@ -70,9 +70,9 @@ class HydraulicIdentifier {
   double previous_command_ = 0.0;  // [V]
   double last_measured_spool_ = 0.0;
   bool predictor_following_ = false;  // the valve model is integrating (spool not measured)
-  ParameterVector scale_;       // coefficient = normalised parameter * scale
-  double flow_scale_;           // [m^3/s] divides both sides of the equation
-  double overlap_factor_;       // rows sharing data per identification step
+  ParameterVector scale_;             // coefficient = normalised parameter * scale
+  double flow_scale_;                 // [m^3/s] divides both sides of the equation
+  double overlap_factor_;             // rows sharing data per identification step
   ParameterVector linearisation_point_;
   RegressionRow row_;
   std::uint64_t rows_ = 0;

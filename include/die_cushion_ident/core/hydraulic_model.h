@@ -47,16 +47,17 @@ class HydraulicModel {
   std::vector<std::string> effectNames() const;
   /// Name, unit and nominal value of every physical parameter, in parameter order.
   const std::vector<ParameterInfo>& parameterInfos() const { return infos_; }
-  /// Nominal physical parameters: oil-and-hose bulk modulus, geometry-derived gain and volume, effect nominals.
+  /// Nominal physical parameters: oil-and-hose bulk modulus, geometry-derived gain and volume, effect
+  /// nominals.
   ParameterVector nominalParameters() const;
 
   double chamberVolume(double x, double dead_volume) const;
 
   // --- Simulation (true parameters) ---
-  double capacitance(const HydraulicSignals& s, const ParameterVector& physical) const;      ///< [m^3/Pa]
-  double valveFlow(const HydraulicSignals& s, const ParameterVector& physical) const;        ///< Q_v [m^3/s]
-  double extraOutflow(const HydraulicSignals& s, const ParameterVector& physical) const;     ///< [m^3/s]
-  double pressureRate(const HydraulicSignals& s, const ParameterVector& physical) const;     ///< dp/dt [Pa/s]
+  double capacitance(const HydraulicSignals& s, const ParameterVector& physical) const;   ///< [m^3/Pa]
+  double valveFlow(const HydraulicSignals& s, const ParameterVector& physical) const;     ///< Q_v [m^3/s]
+  double extraOutflow(const HydraulicSignals& s, const ParameterVector& physical) const;  ///< [m^3/s]
+  double pressureRate(const HydraulicSignals& s, const ParameterVector& physical) const;  ///< dp/dt [Pa/s]
 
   // --- Identification ---
   /// Columns a_j, g_j (arrays of parameterCount()) at signals s. Valve-shape effects are linearised around

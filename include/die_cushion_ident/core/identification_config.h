@@ -25,17 +25,17 @@ bool parseRegressionForm(const std::string& text, RegressionForm* form);
 /// Everything the hydraulic identification needs; the ROS layer and analyze_bag fill it from parameters/YAML.
 /// Names match the configuration keys; units SI.
 struct IdentificationConfig {
-  CylinderGeometry geometry;                  ///< piston_area, stroke_length, supply_pressure
-  std::vector<std::string> effects;           ///< library effects in the model
-  std::vector<std::string> custom_effects;    ///< NAME=EXPR
+  CylinderGeometry geometry;                ///< piston_area, stroke_length, supply_pressure
+  std::vector<std::string> effects;         ///< library effects in the model
+  std::vector<std::string> custom_effects;  ///< NAME=EXPR
 
-  UniformResampler::Config resampler;         ///< sample_period 0.002 s (paper), gaps, staleness
-  int moving_average_width = 31;              ///< b [samples], odd (paper: 31)
-  int derivative_width = 25;                  ///< d [samples], odd (paper: 25)
-  double identification_period = 0.010;       ///< [s], multiple of sample_period (paper: 10 ms)
+  UniformResampler::Config resampler;    ///< sample_period 0.002 s (paper), gaps, staleness
+  int moving_average_width = 31;         ///< b [samples], odd (paper: 31)
+  int derivative_width = 25;             ///< d [samples], odd (paper: 25)
+  double identification_period = 0.010;  ///< [s], multiple of sample_period (paper: 10 ms)
   RegressionForm regression_form = RegressionForm::kIntegral;
 
-  double forgetting_factor = 0.998;           ///< lambda (paper: 0.998)
+  double forgetting_factor = 0.998;  ///< lambda (paper: 0.998)
   /// P0 = this * I for the normalised parameters (1 = the initial value): a prior std of 1000x the initial
   /// value, so weakly excited effects (air shows only at low pressure) are not pulled towards their start.
   double initial_covariance = 1e6;
@@ -43,10 +43,10 @@ struct IdentificationConfig {
   /// every parameter then starts at 1, as in the paper.
   std::map<std::string, double> initial_parameters;
 
-  double min_pressure = 5e5;                  ///< [Pa] below: near cavitation, model not trusted
-  double max_spool_opening = 0.95;            ///< [-] beyond: valve saturated
-  double min_velocity = 0.002;                ///< [m/s] excitation dead zone: below this and ...
-  double min_pressure_rate = 2e6;             ///< [Pa/s] ... below this, a window carries no information
+  double min_pressure = 5e5;        ///< [Pa] below: near cavitation, model not trusted
+  double max_spool_opening = 0.95;  ///< [-] beyond: valve saturated
+  double min_velocity = 0.002;      ///< [m/s] excitation dead zone: below this and ...
+  double min_pressure_rate = 2e6;   ///< [Pa/s] ... below this, a window carries no information
 
   /// Spool model used when the spool position is not measured (NaN on the valve topic).
   ServoValveParameters valve;

@@ -10,12 +10,13 @@ enum class StrokePhase { kRest, kImpact, kDrawing, kBottomHold, kRelease, kRetur
 const char* strokePhaseName(StrokePhase phase);
 
 /// A press cycle as the cushion sees it: rest at pre-pressure, impact of the ram, drawing at ram speed with a
-/// rising pressure set-point, bottom hold, pressure release, return stroke. Times [s], speeds [m/s], pressures [Pa].
+/// rising pressure set-point, bottom hold, pressure release, return stroke. Times [s], speeds [m/s],
+/// pressures [Pa].
 struct PressCycleConfig {
   double rest_time = 0.5;
-  double impact_time = 0.02;         ///< cushion accelerates to ram speed
+  double impact_time = 0.02;  ///< cushion accelerates to ram speed
   double drawing_speed = 0.2;
-  double drawing_depth = 0.2;        ///< [m], must be below stroke_length
+  double drawing_depth = 0.2;  ///< [m], must be below stroke_length
   double deceleration_time = 0.1;
   double bottom_hold_time = 0.15;
   double release_time = 0.06;
@@ -32,8 +33,8 @@ struct PressCycleConfig {
 class PressCycleProgram {
  public:
   struct Point {
-    double x = 0.0;               ///< [m]
-    double v = 0.0;               ///< [m/s]
+    double x = 0.0;                  ///< [m]
+    double v = 0.0;                  ///< [m/s]
     double pressure_setpoint = 0.0;  ///< [Pa]
     StrokePhase phase = StrokePhase::kRest;
     int cycle = 0;
@@ -48,9 +49,9 @@ class PressCycleProgram {
   struct Segment {
     StrokePhase phase;
     double start, duration;
-    double v0, v1;    // cosine velocity ramp from v0 to v1
-    double p0, p1;    // linear set-point ramp
-    double x0;        // position at the start
+    double v0, v1;  // cosine velocity ramp from v0 to v1
+    double p0, p1;  // linear set-point ramp
+    double x0;      // position at the start
   };
   void add(StrokePhase phase, double duration, double v0, double v1, double p0, double p1);
 

@@ -4,11 +4,11 @@ namespace die_cushion_ident {
 
 /// Gains of the cushion's pressure controller (as found on a press, not identified).
 struct PressureControllerConfig {
-  double proportional_gain = 6e-8;     ///< spool opening per Pa of pressure error [1/Pa]
-  double integral_gain = 6e-7;         ///< [1/(Pa s)]
-  double nominal_flow_gain = 6e-6;     ///< the controller's K_v for velocity feed-forward [m^3/(s Pa^0.5)]
-  double nominal_valve_gain = 0.1;     ///< the controller's valve gain [1/V]
-  double max_voltage = 10.0;           ///< command limit [V]
+  double proportional_gain = 6e-8;  ///< spool opening per Pa of pressure error [1/Pa]
+  double integral_gain = 6e-7;      ///< [1/(Pa s)]
+  double nominal_flow_gain = 6e-6;  ///< the controller's K_v for velocity feed-forward [m^3/(s Pa^0.5)]
+  double nominal_valve_gain = 0.1;  ///< the controller's valve gain [1/V]
+  double max_voltage = 10.0;        ///< command limit [V]
 };
 
 /// PI pressure control with velocity feed-forward, as on a die cushion: the drain edge passes the oil the

@@ -9,7 +9,8 @@ namespace die_cushion_ident {
 constexpr int kMaxParameters = 16;
 
 using ParameterVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1>;
-using CovarianceMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxParameters, kMaxParameters>;
+using CovarianceMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxParameters, kMaxParameters>;
 
 /// Recursive least squares with exponential forgetting for  z_k = phi_k^T theta + e_k.
 ///

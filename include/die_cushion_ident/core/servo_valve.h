@@ -17,7 +17,8 @@ struct ServoValveParameters {
 };
 
 /// Spool position under onboard position control:
-///   y'' / w0^2 + 2 D / w0 * y' + y = K * U(t - T_dead),   |y| <= 1 (mechanical stop), |y'| <= max_spool_velocity,
+///   y'' / w0^2 + 2 D / w0 * y' + y = K * U(t - T_dead),   |y| <= 1 (mechanical stop), |y'| <=
+///   max_spool_velocity,
 /// integrated by RK4 in steps of at most max_step with the command held piecewise constant.
 class ServoValve {
  public:

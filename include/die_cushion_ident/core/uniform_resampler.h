@@ -40,10 +40,10 @@ struct StreamHealth {
   std::uint64_t late = 0;          ///< accepted but too late for grid samples already emitted
   std::uint64_t gaps = 0;          ///< intervals longer than max_gap
   double last_stamp = 0.0;
-  double mean_interval = 0.0;      ///< [s]
-  double interval_std = 0.0;       ///< jitter [s]
-  double max_interval = 0.0;       ///< [s]
-  bool stale = false;              ///< silent for longer than stale_timeout while others run
+  double mean_interval = 0.0;  ///< [s]
+  double interval_std = 0.0;   ///< jitter [s]
+  double max_interval = 0.0;   ///< [s]
+  bool stale = false;          ///< silent for longer than stale_timeout while others run
   double rate() const { return mean_interval > 0.0 ? 1.0 / mean_interval : 0.0; }
 };
 

@@ -11,13 +11,13 @@ namespace die_cushion_ident {
 
 /// One equation of the volume balance, averaged over a window:  z = sum_j c_j phi_j + e.
 struct RegressionRow {
-  double t = 0.0;              ///< time the row describes, the centre of its window [s]
-  double z = 0.0;              ///< displaced flow A v [m^3/s]
-  double phi[kMaxParameters] = {};  ///< column j multiplies coefficient c_j (HydraulicModel)
+  double t = 0.0;                             ///< time the row describes, the centre of its window [s]
+  double z = 0.0;                             ///< displaced flow A v [m^3/s]
+  double phi[kMaxParameters] = {};            ///< column j multiplies coefficient c_j (HydraulicModel)
   double p = 0.0, x = 0.0, u = 0.0, y = 0.0;  ///< measured signals at t
-  double velocity = 0.0;       ///< window-mean dx/dt [m/s]
-  double pressure_rate = 0.0;  ///< window-mean dp/dt [Pa/s]
-  bool valid = false;          ///< every sample under the window was usable
+  double velocity = 0.0;                      ///< window-mean dx/dt [m/s]
+  double pressure_rate = 0.0;                 ///< window-mean dp/dt [Pa/s]
+  bool valid = false;                         ///< every sample under the window was usable
 };
 
 /// Turns the uniform sample stream into regression rows of the volume balance, with the paper's moving
@@ -31,7 +31,8 @@ class VolumeBalanceRegressor {
   /// see (incomplete, cavitation, saturated valve); every row whose window touches one is marked invalid.
   /// Valve-shape effects and the chamber volume use `linearisation_point` (physical parameters).
   /// Returns true when `row` holds a new row.
-  bool push(const GridSample& sample, bool usable, const ParameterVector& linearisation_point, RegressionRow* row);
+  bool push(const GridSample& sample, bool usable, const ParameterVector& linearisation_point,
+            RegressionRow* row);
   void clear();
   int delaySamples() const { return delay_; }
 

@@ -27,7 +27,8 @@ CustomFlowEffect::CustomFlowEffect(std::string name, std::string expression)
                                 "' must be an identifier (letters, digits, underscore)");
   }
   if (isLibraryEffect(name_)) {
-    throw std::invalid_argument("custom effect name '" + name_ + "' is a library effect; choose another name");
+    throw std::invalid_argument("custom effect name '" + name_ +
+                                "' is a library effect; choose another name");
   }
   try {
     parser_->DefineVar("p", &bound_.p);

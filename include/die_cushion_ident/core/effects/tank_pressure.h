@@ -4,7 +4,8 @@
 
 namespace die_cushion_ident {
 
-/// Back pressure p_T in the drain path (return filter, cooler, long return line): the drain edge sees p - p_T.
+/// Back pressure p_T in the drain path (return filter, cooler, long return line): the drain edge sees p -
+/// p_T.
 class TankPressure final : public Effect {
  public:
   std::unique_ptr<Effect> clone() const override { return std::make_unique<TankPressure>(*this); }
