@@ -28,7 +28,9 @@ TEST(PressCycleProgram, StrokeIsContinuousReachesTheDepthAndReturnsToTheTop) {
     EXPECT_LE(std::abs(point.x - previous_x), 0.3 * dt * 1.01 + 1e-12) << "no jumps in position at t = " << t;
     // Velocity must be the derivative of position (the simulator relies on it for A v).
     const auto later = program.at(t + 1e-6);
-    if (later.cycle == point.cycle) EXPECT_NEAR((later.x - point.x) / 1e-6, point.v, 1e-3) << t;
+    if (later.cycle == point.cycle) {
+      EXPECT_NEAR((later.x - point.x) / 1e-6, point.v, 1e-3) << t;
+    }
     previous_x = point.x;
     max_x = std::max(max_x, point.x);
   }

@@ -17,8 +17,9 @@ TEST(MovingAverageFilter, RampComesOutDelayedByHalfTheWidth) {
   for (int k = 0; k < 100; ++k) {
     const bool ready = f.push(2.0 * k);
     EXPECT_EQ(ready, k >= 30);
-    if (ready)
+    if (ready) {
       EXPECT_NEAR(f.output(0), 2.0 * (k - 15), 1e-12) << "a ramp is reproduced exactly, 15 samples late";
+    }
   }
 }
 
@@ -47,7 +48,9 @@ TEST(DelayLine, DelaysByExactlyTheGivenSamples) {
     const double v = k;
     const bool ready = line.push(&v);
     EXPECT_EQ(ready, k >= 4);
-    if (ready) EXPECT_EQ(line.output(0), k - 4);
+    if (ready) {
+      EXPECT_EQ(line.output(0), k - 4);
+    }
   }
 }
 

@@ -43,7 +43,9 @@ TEST(UniformResampler, InterpolatesLinearSignalsExactlyOnAnAlignedGrid) {
   for (std::size_t i = 0; i < out.size(); ++i) {
     const GridSample& g = out[i];
     EXPECT_NEAR(std::remainder(g.t, 0.002), 0.0, 1e-12) << "grid points sit on multiples of the period";
-    if (i > 0) EXPECT_NEAR(g.t - out[i - 1].t, 0.002, 1e-12);
+    if (i > 0) {
+      EXPECT_NEAR(g.t - out[i - 1].t, 0.002, 1e-12);
+    }
     EXPECT_TRUE(g.complete);
     EXPECT_NEAR(g.p, 1e6 + 1e7 * g.t, 1e-6);
     EXPECT_NEAR(g.x, 0.1 * g.t, 1e-12);
