@@ -156,6 +156,9 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     bool must_wait = false;
     bool any_bracketed = false;
     double resume = std::numeric_limits<double>::infinity();
+    // Each stream's interpolated (first, second) at t; NaN where it has nothing to bracket t with.
+    double first[kInputStreamCount] = {kNaN, kNaN, kNaN};
+    double second[kInputStreamCount] = {kNaN, kNaN, kNaN};
     for (int s = 0; s < kInputStreamCount; ++s) {
       const Channel& c = channels_[s];
       StreamHealth& h = health_[s];
@@ -167,8 +170,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
             break;
           }
         }
-        double f, g;
-        if (interpolate(s, t, &f, &g)) any_bracketed = true;
+        if (interpolate(s, t, &first[s], &second[s])) any_bracketed = true;
         continue;
       }
       const double silent_since = c.has_any ? c.buffer.back().stamp : first_stamp_;
@@ -187,12 +189,16 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
       }
     }
 
+    constexpr int kP = static_cast<int>(InputStream::kPressure);
+    constexpr int kX = static_cast<int>(InputStream::kPosition);
+    constexpr int kV = static_cast<int>(InputStream::kValve);
     GridSample g;
     g.t = t;
-    double unused;
-    interpolate(static_cast<int>(InputStream::kPressure), t, &g.p, &unused);
-    interpolate(static_cast<int>(InputStream::kPosition), t, &g.x, &g.v);
-    interpolate(static_cast<int>(InputStream::kValve), t, &g.u, &g.y);
+    g.p = first[kP];
+    g.x = first[kX];
+    g.v = second[kX];
+    g.u = first[kV];
+    g.y = second[kV];
     g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
     g.discontinuity = pending_discontinuity_;
     pending_discontinuity_ = false;

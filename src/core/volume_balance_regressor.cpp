@@ -52,13 +52,6 @@ HydraulicSignals VolumeBalanceRegressor::signalsAt(double t, double p, double dp
   return s;
 }
 
-void VolumeBalanceRegressor::fillColumns(const HydraulicSignals& s, const ParameterVector& point,
-                                         double pressure_change, double dt, double* out) const {
-  double a[kMaxParameters], g[kMaxParameters];
-  model_.regressionColumns(s, point, a, g);
-  for (int j = 0; j < n_; ++j) out[j] = a[j] * pressure_change + g[j] * dt;
-}
-
 bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const ParameterVector& point,
                                   RegressionRow* row) {
   if (sample.discontinuity) clear();
@@ -154,7 +147,9 @@ bool VolumeBalanceRegressor::pushDerivative(const GridSample& s, bool usable, co
   const HydraulicSignals f = signalsAt(s.t - delay_ * dt_, aligned_.output(0), dp, aligned_.output(1), v,
                                        aligned_.output(2), aligned_.output(3), point);
   row->z = model_.geometry().piston_area * v;
-  fillColumns(f, point, dp, 1.0, row->phi);
+  double a[kMaxParameters], g[kMaxParameters];
+  model_.regressionColumns(f, point, a, g);
+  for (int j = 0; j < n_; ++j) row->phi[j] = a[j] * dp + g[j];
   row->valid = span_flags_.sum(0) < 1e-9;
   return true;
 }

@@ -1,7 +1,5 @@
 #pragma once
 
-#include <memory>
-
 #include "die_cushion_ident/core/hydraulic_model.h"
 #include "die_cushion_ident/core/identification_config.h"
 #include "die_cushion_ident/core/signal_filters.h"
@@ -41,9 +39,6 @@ class VolumeBalanceRegressor {
                              const ParameterVector& linearisation_point) const;
   bool pushIntegral(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
   bool pushDerivative(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
-  void fillColumns(const HydraulicSignals& s, const ParameterVector& point, double pressure_change, double dt,
-                   double* out) const;
-
   const HydraulicModel& model_;
   RegressionForm form_;
   double dt_;
