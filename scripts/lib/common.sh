@@ -9,7 +9,7 @@ export PATH="/usr/bin:$PATH"
 
 APT_PACKAGES=(
   build-essential cmake ros-core-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
-  libdiagnostic-updater-dev libeigen3-dev libmuparser-dev libyaml-cpp-dev
+  libdiagnostic-updater-dev libeigen3-dev libmuparser-dev libyaml-cpp-dev libceres-dev
   libgtest-dev googletest libbenchmark-dev
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch rosbash
   python3-yaml python3-numpy

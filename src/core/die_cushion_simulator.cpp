@@ -65,6 +65,7 @@ DieCushionSimulator::DieCushionSimulator(const SimulatorConfig& config)
     if (!(rates[s] > 0.0)) throw std::invalid_argument("sensor rates must be > 0 Hz");
     next_sample_[s] = (0.3 * s) / rates[s];  // the streams are not sampled in step with each other
   }
+  next_sample_[static_cast<int>(InputStream::kValve)] = 0.0;
 }
 
 void DieCushionSimulator::setTrueParameter(const std::string& name, double value) {
@@ -115,6 +116,7 @@ void DieCushionSimulator::step(std::vector<SimulatedMeasurement>* out) {
   const double measured_p = state_.p + config_.sensors.pressure_noise * normal_(rng_);
   state_.u = override_voltage_ ? *override_voltage_
                                : controller_.update(dt, measured_p, now.pressure_setpoint, now.v);
+  if (out) sampleValve(out);
   const int substeps = std::max(1, static_cast<int>(std::ceil(dt / config_.integration_step - 1e-9)));
   const double h = dt / substeps;
   for (int i = 0; i < substeps; ++i) {
@@ -137,11 +139,28 @@ void DieCushionSimulator::run(double duration, std::vector<SimulatedMeasurement>
   while (state_.t < end - 1e-12) step(out);
 }
 
+void DieCushionSimulator::sampleValve(std::vector<SimulatedMeasurement>* out) {
+  const SensorConfig& sc = config_.sensors;
+  const int s = static_cast<int>(InputStream::kValve);
+  if (state_.t + 0.5 * config_.integration_step < next_sample_[s]) return;
+  ++sample_index_[s];
+  next_sample_[s] = sample_index_[s] / sc.valve_rate;
+  if (sc.drop_probability > 0.0 && uniform_(rng_) < sc.drop_probability) return;
+  SimulatedMeasurement m;
+  m.stream = InputStream::kValve;
+  m.sample.stamp = state_.t;
+  m.sample.first = state_.u;
+  m.sample.second = sc.measure_spool ? std::clamp(state_.y + sc.spool_noise * normal_(rng_), -1.0, 1.0)
+                                     : std::numeric_limits<double>::quiet_NaN();
+  out->push_back(m);
+}
+
 void DieCushionSimulator::sampleSensors(std::vector<SimulatedMeasurement>* out) {
   const SensorConfig& sc = config_.sensors;
   const double rates[kInputStreamCount] = {sc.pressure_rate, sc.position_rate, sc.valve_rate};
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   for (int s = 0; s < kInputStreamCount; ++s) {
+    if (static_cast<InputStream>(s) == InputStream::kValve) continue;
     if (state_.t + 1e-12 < next_sample_[s]) continue;
     const double period = 1.0 / rates[s];
     ++sample_index_[s];
@@ -161,9 +180,6 @@ void DieCushionSimulator::sampleSensors(std::vector<SimulatedMeasurement>* out) 
         m.sample.second = sc.publish_velocity ? state_.v + sc.velocity_noise * normal_(rng_) : kNaN;
         break;
       case InputStream::kValve:
-        m.sample.first = state_.u;
-        m.sample.second =
-            sc.measure_spool ? std::clamp(state_.y + sc.spool_noise * normal_(rng_), -1.0, 1.0) : kNaN;
         break;
     }
     out->push_back(m);

@@ -1,15 +1,22 @@
 #include "die_cushion_ident/core/identification_pipeline.h"
 
+#include <cmath>
+
 namespace die_cushion_ident {
 
 IdentificationPipeline::IdentificationPipeline(const IdentificationConfig& config)
-    : resampler_(config.resampler), identifier_(config) {
+    : resampler_(config.resampler),
+      identifier_(config),
+      spool_predictor_(config.valve),
+      max_gap_(config.resampler.max_gap) {
   grid_.reserve(64);
 }
 
 UniformResampler::PushResult IdentificationPipeline::push(InputStream stream, const StreamSample& sample) {
   ++messages_;
-  const auto result = resampler_.push(stream, sample, &grid_);
+  StreamSample predicted = sample;
+  if (stream == InputStream::kValve) predictSpool(&predicted);
+  const auto result = resampler_.push(stream, predicted, &grid_);
   if (result == UniformResampler::PushResult::kRestarted) identifier_.reset();
   consume();
   return result;
@@ -25,6 +32,31 @@ void IdentificationPipeline::reset() {
   identifier_.reset();
   grid_.clear();
   messages_ = 0;
+  spool_predictor_.reset();
+  last_valve_stamp_ = -std::numeric_limits<double>::infinity();
+  last_voltage_ = last_measured_spool_ = 0.0;
+  predicting_ = false;
+}
+
+void IdentificationPipeline::predictSpool(StreamSample* valve) {
+  if (!std::isfinite(valve->stamp) || !std::isfinite(valve->first)) return;  // the resampler rejects it
+  const double dt = valve->stamp - last_valve_stamp_;
+  if (std::isfinite(valve->second)) {
+    last_measured_spool_ = valve->second;
+    predicting_ = false;
+  } else if (!predicting_ || !(dt > 0.0 && dt <= max_gap_)) {
+    // Start (or restart after a gap or a backward jump) from the last measured or a steady spool.
+    spool_predictor_.reset(predicting_ ? spool_predictor_.position() : last_measured_spool_);
+    predicting_ = true;
+    valve->second = spool_predictor_.position();
+  } else {
+    // The previous voltage was in force until now (held by the amplifier).
+    valve->second = spool_predictor_.advance(dt, last_voltage_);
+  }
+  if (dt > 0.0 || dt < -max_gap_) {  // not for a duplicate or a slightly late message
+    last_valve_stamp_ = valve->stamp;
+    last_voltage_ = valve->first;
+  }
 }
 
 void IdentificationPipeline::consume() {

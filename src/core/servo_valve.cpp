@@ -56,12 +56,15 @@ void ServoValve::integrate(double h, double u) {
 double ServoValve::advance(double dt, double command_voltage) {
   if (!(dt > 0.0)) return y_;
   if (std::isfinite(command_voltage)) commands_.emplace_back(time_, command_voltage);
-  const int steps = std::max(1, static_cast<int>(std::ceil(dt / max_step_ - 1e-9)));
-  const double h = dt / steps;
-  for (int i = 0; i < steps; ++i) {
-    // The delayed command is piecewise constant; sample it at the substep's midpoint.
-    integrate(h, delayedCommand(time_ + 0.5 * h));
-    time_ += h;
+  const double end = time_ + dt;
+  while (time_ < end) {
+    // Steps end exactly where the delayed command switches, so the dead time is not rounded to a step.
+    const double u = delayedCommand(time_ + 1e-12);
+    double stop = std::min(end, time_ + max_step_);
+    if (commands_.size() >= 2) stop = std::min(stop, commands_[1].first + parameters_.dead_time);
+    if (!(stop > time_)) stop = std::min(end, time_ + max_step_);
+    integrate(stop - time_, u);
+    time_ = stop;
   }
   return y_;
 }

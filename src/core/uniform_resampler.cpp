@@ -116,7 +116,10 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
     if (a.stamp <= t && t <= b.stamp) {
       if (b.stamp - a.stamp > config_.max_gap) break;
       const double w = (t - a.stamp) / (b.stamp - a.stamp);
-      *first = a.first + w * (b.first - a.first);
+      // The valve voltage is in force from its stamp on (held by the amplifier), so it is held, not
+      // interpolated: interpolation would lead the real command by half a message period.
+      const bool held = stream == static_cast<int>(InputStream::kValve);
+      *first = held ? (t < b.stamp ? a.first : b.first) : a.first + w * (b.first - a.first);
       *second = a.second + w * (b.second - a.second);  // NaN stays NaN: not measured
       return true;
     }

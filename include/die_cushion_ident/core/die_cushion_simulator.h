@@ -23,8 +23,8 @@ struct SensorConfig {
   double spool_noise = 0.002;     ///< [-]
   double pressure_rate = 1000.0;  ///< [Hz]
   double position_rate = 1000.0;
-  double valve_rate = 1000.0;
-  double jitter = 5e-5;           ///< [s] standard deviation of the sampling instant
+  double valve_rate = 1000.0;     ///< at most the control rate: sampled at command updates
+  double jitter = 5e-5;           ///< [s] standard deviation of the sampling instant (pressure, position)
   bool publish_velocity = true;   ///< JointState velocity[0] present
   bool measure_spool = true;      ///< spool position measured (else NaN)
   double drop_probability = 0.0;  ///< chance that a message is lost
@@ -88,6 +88,9 @@ class DieCushionSimulator {
   double pressureRate(double t, double p, double y) const;
   void integratePlant(double t0, double h, double y0, double y1);
   void sampleSensors(std::vector<SimulatedMeasurement>* out);
+  // The valve amplifier reports at its command updates: the voltage in force from the stamp on and the
+  // spool position at that instant (the convention the sweep analysis relies on, doc/valve_sweep.md).
+  void sampleValve(std::vector<SimulatedMeasurement>* out);
 
   SimulatorConfig config_;
   HydraulicModel model_;

@@ -2,15 +2,19 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "die_cushion_ident/core/hydraulic_identifier.h"
+#include "die_cushion_ident/core/servo_valve.h"
 #include "die_cushion_ident/core/uniform_resampler.h"
 
 namespace die_cushion_ident {
 
 /// The per-message path of the live node and of analyze_bag: raw stream messages -> UniformResampler ->
 /// HydraulicIdentifier. A restart of the time base (bag played again) restarts the identification too.
+/// Where the valve topic carries no spool position (NaN), the configured valve model predicts it message by
+/// message from the held command voltages, before resampling (at the valve's own rate, not the grid's).
 class IdentificationPipeline {
  public:
   /// Called after every identification step with the identifier (estimate, last row, ...).
@@ -30,12 +34,19 @@ class IdentificationPipeline {
 
  private:
   void consume();
+  void predictSpool(StreamSample* valve);
 
   UniformResampler resampler_;
   HydraulicIdentifier identifier_;
   std::vector<GridSample> grid_;
   StepCallback on_step_;
   std::uint64_t messages_ = 0;
+  ServoValve spool_predictor_;
+  double max_gap_;
+  double last_valve_stamp_ = -std::numeric_limits<double>::infinity();
+  double last_voltage_ = 0.0;
+  double last_measured_spool_ = 0.0;
+  bool predicting_ = false;
 };
 
 }  // namespace die_cushion_ident

@@ -22,7 +22,9 @@ struct StreamSample {
 };
 
 /// One sample on the uniform grid. Channels of a stream that was stale or inside a gap are NaN and
-/// `complete` is false; `discontinuity` marks the first sample after the grid was restarted.
+/// `complete` is false; `discontinuity` marks the first sample after the grid was restarted. Streams are
+/// interpolated linearly, except the valve voltage u, which is held from its stamp on (the amplifier holds
+/// it).
 struct GridSample {
   double t = 0.0;
   double p = 0.0, x = 0.0, v = 0.0, u = 0.0, y = 0.0;

@@ -1,0 +1,84 @@
+#include "sweep_fixtures.h"
+
+#include <random>
+
+namespace die_cushion_ident {
+namespace testing {
+
+ServoValveParameters randomValve(std::uint64_t seed) {
+  std::mt19937_64 rng(seed * 7919 + 17);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  ServoValveParameters valve;
+  valve.natural_frequency = 50.0 + 70.0 * unit(rng);
+  valve.damping = 0.5 + 0.4 * unit(rng);
+  valve.dead_time = 0.001 + 0.002 * unit(rng);
+  valve.gain = 0.05 + 0.15 * unit(rng);
+  return valve;
+}
+
+SimulatorConfig cushionAtRest(const ServoValveParameters& valve, std::uint64_t seed) {
+  SimulatorConfig config;
+  config.valve = valve;
+  config.cycle.rest_time = 1e6;  // the press never strokes during the test
+  config.sensors.spool_noise = 0.002;
+  config.seed = seed;
+  return config;
+}
+
+SweepRig::SweepRig(const SimulatorConfig& plant, const SweepLimits& limits) : plant_(plant), sweep_(limits) {
+  tick();  // first messages, so that the plant condition is known
+}
+
+PlantCondition SweepRig::condition() const {
+  PlantCondition c;
+  const double now = plant_.state().t;
+  c.pressure = pressure_override_ ? *pressure_override_ : pressure_;
+  c.pressure_age = now - pressure_stamp_;
+  c.velocity = velocity_;
+  c.spool_age = now - spool_stamp_;
+  return c;
+}
+
+std::string SweepRig::start(const SweepRequest& request) {
+  return sweep_.start(request, plant_.state().t, condition());
+}
+
+std::optional<double> SweepRig::tick() {
+  const auto command = sweep_.command(plant_.state().t);
+  if (command) {
+    plant_.setValveCommandOverride(*command);
+    commands_.push_back(*command);
+  }
+  messages_.clear();
+  plant_.step(&messages_);
+  for (const auto& m : messages_) {
+    switch (m.stream) {
+      case InputStream::kPressure:
+        pressure_ = m.sample.first;
+        pressure_stamp_ = m.sample.stamp;
+        break;
+      case InputStream::kPosition:
+        velocity_ = m.sample.second;
+        break;
+      case InputStream::kValve: {
+        if (drop_valve_) break;
+        const double spool = spool_override_ ? *spool_override_ : m.sample.second;
+        valve_record_.push_back({m.sample.stamp, m.sample.first, spool});
+        if (std::isfinite(spool)) spool_stamp_ = m.sample.stamp;
+        sweep_.addValveSample(m.sample.stamp, m.sample.first, spool);
+        break;
+      }
+    }
+  }
+  sweep_.supervise(plant_.state().t, condition());
+  return command;
+}
+
+void SweepRig::runToEnd(double max_time) {
+  const double end = plant_.state().t + max_time;
+  while (sweep_.running() && plant_.state().t < end) tick();
+  tick();  // the command that returns the valve to its offset
+}
+
+}  // namespace testing
+}  // namespace die_cushion_ident
