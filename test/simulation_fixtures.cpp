@@ -42,7 +42,7 @@ void feed(DieCushionSimulator& plant, IdentificationPipeline& pipeline, double d
   }
 }
 
-static const ParameterEstimate& find(const HydraulicEstimate& estimate, const std::string& name) {
+static const IdentifiedParameter& find(const HydraulicEstimate& estimate, const std::string& name) {
   for (const auto& p : estimate.parameters) {
     if (p.name == name) return p;
   }

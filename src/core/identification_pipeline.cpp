@@ -59,9 +59,16 @@ void IdentificationPipeline::predictSpool(StreamSample* valve) {
   }
 }
 
+void IdentificationPipeline::setValveModel(const ServoValveParameters& valve) {
+  spool_predictor_ = ServoValve(valve);
+  predicting_ = false;  // restart the prediction from the last measured spool
+}
+
 void IdentificationPipeline::consume() {
   for (const GridSample& g : grid_) {
-    if (identifier_.push(g) && on_step_) on_step_(identifier_);
+    const bool stepped = identifier_.push(g);
+    if (on_grid_) on_grid_(g, identifier_);
+    if (stepped && on_step_) on_step_(identifier_);
   }
   grid_.clear();
 }

@@ -14,7 +14,7 @@
 namespace die_cushion_ident {
 
 /// A physical parameter estimate with its one-sigma uncertainty.
-struct ParameterEstimate {
+struct IdentifiedParameter {
   std::string name;
   std::string unit;
   double value = 0.0;
@@ -25,12 +25,12 @@ struct ParameterEstimate {
 struct HydraulicEstimate {
   double t = 0.0;  ///< time of the newest row used [s]
   std::vector<std::string> effects;
-  std::vector<ParameterEstimate> parameters;  ///< in HydraulicModel parameter order
-  std::uint64_t updates = 0;                  ///< RLS updates so far
-  std::uint64_t steps = 0;                    ///< identification steps (every identification_period)
-  std::uint64_t skipped_invalid = 0;          ///< steps whose window held unusable samples
-  std::uint64_t skipped_unexcited = 0;        ///< steps in the excitation dead zone
-  double equation_error_rms = 0.0;            ///< recent a-priori error of dp/dt [Pa/s]
+  std::vector<IdentifiedParameter> parameters;  ///< in HydraulicModel parameter order
+  std::uint64_t updates = 0;                    ///< RLS updates so far
+  std::uint64_t steps = 0;                      ///< identification steps (every identification_period)
+  std::uint64_t skipped_invalid = 0;            ///< steps whose window held unusable samples
+  std::uint64_t skipped_unexcited = 0;          ///< steps in the excitation dead zone
+  double equation_error_rms = 0.0;              ///< recent a-priori error of dp/dt [Pa/s]
 };
 
 /// Online identification of the pressure build-up model (the paper's method, made unbiased):

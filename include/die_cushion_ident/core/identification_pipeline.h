@@ -26,6 +26,11 @@ class IdentificationPipeline {
   void flush();
   void reset();
   void setStepCallback(StepCallback callback) { on_step_ = std::move(callback); }
+  /// Called for every uniform sample, after the identifier has taken it (model comparison, phases).
+  using GridCallback = std::function<void(const GridSample&, const HydraulicIdentifier&)>;
+  void setGridCallback(GridCallback callback) { on_grid_ = std::move(callback); }
+  /// Replaces the valve model that predicts an unmeasured spool (e.g. after a sweep identified it).
+  void setValveModel(const ServoValveParameters& valve);
 
   const HydraulicIdentifier& identifier() const { return identifier_; }
   HydraulicIdentifier& identifier() { return identifier_; }
@@ -40,6 +45,7 @@ class IdentificationPipeline {
   HydraulicIdentifier identifier_;
   std::vector<GridSample> grid_;
   StepCallback on_step_;
+  GridCallback on_grid_;
   std::uint64_t messages_ = 0;
   ServoValve spool_predictor_;
   double max_gap_;

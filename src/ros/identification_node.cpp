@@ -1,0 +1,571 @@
+#include "identification_node.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "die_cushion_ident/FrequencyResponse.h"
+#include "die_cushion_ident/ModelComparison.h"
+#include "die_cushion_ident/ParameterEstimate.h"
+#include "die_cushion_ident/ValveModel.h"
+
+namespace die_cushion_ident {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Weight of a new squared residual in the running means: ~5 s of 2 ms samples.
+constexpr double kResidualWeight = 1.0 / 2500.0;
+
+const char* streamName(InputStream stream) {
+  switch (stream) {
+    case InputStream::kPressure:
+      return "pressure";
+    case InputStream::kPosition:
+      return "position";
+    case InputStream::kValve:
+      return "valve";
+  }
+  return "unknown";
+}
+
+const char* pushResultText(UniformResampler::PushResult result) {
+  switch (result) {
+    case UniformResampler::PushResult::kNonFinite:
+      return "non-finite stamp or value";
+    case UniformResampler::PushResult::kDuplicate:
+      return "duplicate stamp";
+    case UniformResampler::PushResult::kOutOfOrder:
+      return "stamp older than the previous one";
+    default:
+      return "";
+  }
+}
+
+std::string join(const std::vector<std::string>& items, const char* separator) {
+  std::string out;
+  for (const auto& item : items) out += (out.empty() ? "" : separator) + item;
+  return out;
+}
+
+std::string formatted(const char* pattern, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), pattern, value);
+  return buffer;
+}
+
+}  // namespace
+
+IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), sweep_(SweepLimits()), updater_(nh, pnh) {
+  const auto problems = loadParameters(pnh_, &config_, &limits_, &settings_);
+  if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + join(problems, "\n  "));
+  sweep_ = ValveSweep(limits_);
+  rebuildPipeline();
+
+  estimate_pub_ = pnh_.advertise<ParameterEstimate>("estimate", 10);
+  comparison_pub_ = pnh_.advertise<ModelComparison>("model_comparison", 10);
+  response_pub_ = pnh_.advertise<FrequencyResponse>("frequency_response", 1, true);
+  valve_model_pub_ = pnh_.advertise<ValveModel>("valve_model", 1, true);
+  command_pub_ = nh_.advertise<ValveSignal>("valve_command", 10);
+
+  const auto hints = ros::TransportHints().tcpNoDelay();
+  pressure_sub_ = nh_.subscribe("pressure", 1000, &IdentificationNode::onPressure, this, hints);
+  position_sub_ = nh_.subscribe("position", 1000, &IdentificationNode::onPosition, this, hints);
+  valve_sub_ = nh_.subscribe("valve", 1000, &IdentificationNode::onValve, this, hints);
+
+  start_srv_ = pnh_.advertiseService("start_sweep", &IdentificationNode::startSweep, this);
+  abort_srv_ = pnh_.advertiseService("abort_sweep", &IdentificationNode::abortSweep, this);
+  effects_srv_ = pnh_.advertiseService("set_effects", &IdentificationNode::setEffects, this);
+  reset_srv_ = pnh_.advertiseService("reset", &IdentificationNode::reset, this);
+
+  updater_.setHardwareID("die_cushion");
+  for (InputStream stream : {InputStream::kPressure, InputStream::kPosition, InputStream::kValve}) {
+    updater_.add(
+        std::string("input ") + streamName(stream),
+        [this, stream](diagnostic_updater::DiagnosticStatusWrapper& s) { diagnoseInput(s, stream); });
+  }
+  updater_.add("estimator", this, &IdentificationNode::diagnoseEstimator);
+  updater_.add("valve model", this, &IdentificationNode::diagnoseValve);
+  updater_.add("model adequacy", this, &IdentificationNode::diagnoseAdequacy);
+  diagnostic_timer_ =
+      nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) { updater_.update(); });
+
+  ROS_INFO_STREAM("die_cushion_ident: identifying "
+                  << join(pipeline_->identifier().model().effectNames(), ", ")
+                  << (config_.effects.empty() && config_.custom_effects.empty() ? "base model" : "") << " on "
+                  << nh_.resolveName("pressure") << ", " << nh_.resolveName("position") << ", "
+                  << nh_.resolveName("valve"));
+}
+
+IdentificationNode::~IdentificationNode() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!sweep_.running()) return;
+  sweep_.abort("shutdown");
+  if (const auto u = sweep_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
+}
+
+void IdentificationNode::rebuildPipeline() {
+  pipeline_ = std::make_unique<IdentificationPipeline>(config_);
+  pipeline_->setGridCallback(
+      [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });
+  pipeline_->setStepCallback(
+      [this](const HydraulicIdentifier& identifier) { onIdentificationStep(identifier); });
+  free_run_ = std::make_unique<FreeRunPressure>(pipeline_->identifier().model(), config_.min_pressure);
+  classifier_.reset();
+  residual_square_mean_ = 0.0;
+  residual_samples_ = 0;
+  std::fill(std::begin(phase_square_error_), std::end(phase_square_error_), 0.0);
+}
+
+// ---- inputs ----
+
+void IdentificationNode::onPressure(const sensor_msgs::FluidPressure::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double stamp = msg->header.stamp.toSec();
+  if (std::isfinite(msg->fluid_pressure)) {
+    pressure_ = msg->fluid_pressure;
+    pressure_stamp_ = stamp;
+  }
+  push(InputStream::kPressure, {stamp, msg->fluid_pressure, kNaN});
+}
+
+void IdentificationNode::onPosition(const sensor_msgs::JointState::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const int s = static_cast<int>(InputStream::kPosition);
+  if (msg->position.empty()) {
+    ++rejected_[s];
+    last_rejection_[s] = "JointState without position[0]";
+    ROS_WARN_THROTTLE(5.0, "position: JointState without position[0] ignored");
+    return;
+  }
+  const double stamp = msg->header.stamp.toSec();
+  const double x = msg->position[0];
+  const double v = msg->velocity.empty() ? kNaN : msg->velocity[0];
+  if (std::isfinite(x)) {
+    // The safety check needs a velocity even when the topic carries none: difference the positions.
+    if (std::isfinite(v)) {
+      velocity_ = v;
+    } else if (stamp > position_stamp_ && stamp - position_stamp_ < 0.1) {
+      velocity_ = (x - position_) / (stamp - position_stamp_);
+    }
+    position_ = x;
+    position_stamp_ = stamp;
+  }
+  push(InputStream::kPosition, {stamp, x, v});
+}
+
+void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double stamp = msg->header.stamp.toSec();
+  if (std::isfinite(msg->spool_position)) spool_stamp_ = stamp;
+  push(InputStream::kValve, {stamp, msg->voltage, msg->spool_position});
+  if (!sweep_.running()) return;
+  sweep_.addValveSample(stamp, msg->voltage, msg->spool_position);
+  if (sweep_.points().size() != published_points_) publishFrequencyResponse();
+  if (!sweep_.running()) finishSweep();
+}
+
+void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
+  const auto result = pipeline_->push(stream, sample);
+  if (result == UniformResampler::PushResult::kRestarted) {
+    ROS_WARN("die_cushion_ident: %s stamp jumped (bag restarted?): identification restarted",
+             streamName(stream));
+    free_run_->resync();
+    classifier_.reset();
+  } else if (result != UniformResampler::PushResult::kAccepted) {
+    const int s = static_cast<int>(stream);
+    ++rejected_[s];
+    last_rejection_[s] = pushResultText(result);
+    ROS_WARN_THROTTLE(5.0, "die_cushion_ident: %s message rejected: %s", streamName(stream),
+                      pushResultText(result));
+  }
+}
+
+// ---- identification and model comparison ----
+
+void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier) {
+  last_grid_ = g;
+  phase_ = classifier_.classify(g);
+  modelled_pressure_ = free_run_->step(g, identifier.physicalParameters());
+  if (std::isfinite(modelled_pressure_) && !free_run_->anchoredThisStep() && std::isfinite(g.p)) {
+    const double square = (g.p - modelled_pressure_) * (g.p - modelled_pressure_);
+    const double w = std::max(kResidualWeight, 1.0 / static_cast<double>(++residual_samples_));
+    residual_square_mean_ += w * (square - residual_square_mean_);
+    double& phase_mean = phase_square_error_[static_cast<int>(phase_)];
+    phase_mean += kResidualWeight * 5.0 * (square - phase_mean);
+  }
+}
+
+void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identifier) {
+  const HydraulicEstimate e = identifier.estimate();
+  const ros::Time stamp(std::max(e.t, 0.0));
+  if (estimate_pub_.getNumSubscribers() > 0) {
+    ParameterEstimate msg;
+    msg.header.stamp = stamp;
+    msg.effects = e.effects;
+    for (const auto& p : e.parameters) {
+      msg.names.push_back(p.name);
+      msg.values.push_back(p.value);
+      msg.standard_deviations.push_back(p.std);
+      msg.units.push_back(p.unit);
+    }
+    msg.bulk_modulus = e.parameters[HydraulicModel::kBulkModulus].value;
+    msg.bulk_modulus_std = e.parameters[HydraulicModel::kBulkModulus].std;
+    msg.valve_flow_gain = e.parameters[HydraulicModel::kValveFlowGain].value;
+    msg.valve_flow_gain_std = e.parameters[HydraulicModel::kValveFlowGain].std;
+    msg.dead_volume = e.parameters[HydraulicModel::kDeadVolume].value;
+    msg.dead_volume_std = e.parameters[HydraulicModel::kDeadVolume].std;
+    msg.equation_error_rms = e.equation_error_rms;
+    msg.updates = e.updates;
+    msg.skipped_unexcited = e.skipped_unexcited;
+    msg.skipped_invalid = e.skipped_invalid;
+    estimate_pub_.publish(msg);
+  }
+  if (comparison_pub_.getNumSubscribers() > 0) {
+    ModelComparison msg;
+    msg.header.stamp = ros::Time(std::max(last_grid_.t, 0.0));
+    msg.measured_pressure = last_grid_.p;
+    msg.modelled_pressure = modelled_pressure_;
+    msg.residual = last_grid_.p - modelled_pressure_;
+    msg.simulation_error_rms = std::sqrt(residual_square_mean_);
+    msg.equation_error_rms = e.equation_error_rms;
+    msg.position = last_grid_.x;
+    msg.velocity = last_grid_.v;
+    msg.spool_position = last_grid_.y;
+    msg.phase = static_cast<std::uint8_t>(phase_);
+    msg.phase_name = strokePhaseName(phase_);
+    comparison_pub_.publish(msg);
+  }
+}
+
+// ---- valve sweep ----
+
+PlantCondition IdentificationNode::plantCondition(double now) const {
+  PlantCondition c;
+  c.pressure = pressure_;
+  c.pressure_age = now - pressure_stamp_;
+  c.velocity = velocity_;
+  c.spool_age = now - spool_stamp_;
+  return c;
+}
+
+void IdentificationNode::onSweepTimer(const ros::TimerEvent&) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double now = ros::Time::now().toSec();
+  sweep_.supervise(now, plantCondition(now));
+  const auto u = sweep_.command(now);
+  if (u) publishSweepCommand(*u);
+  if (!sweep_.running()) {
+    finishSweep();
+    if (!u) sweep_timer_.stop();  // the offset has been sent
+  }
+}
+
+void IdentificationNode::publishSweepCommand(double voltage) {
+  ValveSignal msg;
+  msg.header.stamp = ros::Time::now();
+  msg.voltage = voltage;
+  msg.spool_position = kNaN;
+  command_pub_.publish(msg);
+}
+
+void IdentificationNode::publishFrequencyResponse() {
+  FrequencyResponse msg;
+  msg.header.stamp = ros::Time::now();
+  msg.state = sweepStateName(sweep_.state());
+  for (const auto& p : sweep_.points()) {
+    msg.frequency.push_back(p.frequency);
+    msg.re.push_back(p.re);
+    msg.im.push_back(p.im);
+    msg.magnitude.push_back(p.magnitude);
+    msg.phase.push_back(p.phase);
+    msg.magnitude_std.push_back(p.magnitude_std);
+    msg.phase_std.push_back(p.phase_std);
+    msg.convergence.push_back(p.convergence);
+    msg.harmonic_distortion.push_back(p.harmonic_distortion);
+    msg.unexplained_share.push_back(p.unexplained_share);
+    msg.distorted.push_back(p.distorted);
+  }
+  const ServoValveFit& fit = sweep_.fit();
+  if (fit.success && !sweep_.points().empty()) {
+    // The fitted curve on a fine log grid across the measured band, phase unwrapped like the points.
+    const double f_low = sweep_.points().front().frequency, f_high = sweep_.points().back().frequency;
+    double previous = 0.0;
+    for (int i = 0; i <= 100; ++i) {
+      const double f = f_low * std::pow(f_high / f_low, i / 100.0);
+      const auto g = servoValveResponse(fit.parameters, f);
+      double phase = std::arg(g);
+      if (i > 0) phase = previous + wrapAngle(phase - previous);
+      previous = phase;
+      msg.fit_frequency.push_back(f);
+      msg.fit_magnitude.push_back(std::abs(g));
+      msg.fit_phase.push_back(phase);
+    }
+  }
+  published_points_ = sweep_.points().size();
+  response_pub_.publish(msg);
+}
+
+void IdentificationNode::finishSweep() {
+  if (last_sweep_outcome_ == "reported") return;
+  last_sweep_outcome_ = "reported";
+  publishFrequencyResponse();
+  ValveModel msg;
+  msg.header.stamp = ros::Time::now();
+  const ServoValveFit& fit = sweep_.fit();
+  if (sweep_.state() == ValveSweep::State::kAborted) {
+    msg.success = false;
+    msg.message = "sweep aborted: " + sweep_.abortReason();
+    ROS_WARN("die_cushion_ident: %s", msg.message.c_str());
+  } else {
+    msg.success = fit.success;
+    msg.message = fit.message;
+    msg.natural_frequency = fit.parameters.natural_frequency;
+    msg.natural_frequency_std = fit.natural_frequency_std;
+    msg.damping = fit.parameters.damping;
+    msg.damping_std = fit.damping_std;
+    msg.gain = fit.parameters.gain;
+    msg.gain_std = fit.gain_std;
+    msg.dead_time = fit.parameters.dead_time;
+    msg.dead_time_std = fit.dead_time_std;
+    msg.magnitude_residual_rms = fit.magnitude_residual_rms;
+    msg.phase_residual_rms = fit.phase_residual_rms;
+    msg.reduced_chi_square = fit.reduced_chi_square;
+    msg.points_used = fit.points_used;
+    msg.points_rejected = fit.points_rejected;
+    if (fit.success) {
+      last_valve_fit_ = fit;
+      config_.valve = fit.parameters;  // an unmeasured spool is predicted with the identified valve
+      config_.valve.max_spool_velocity = std::numeric_limits<double>::infinity();
+      pipeline_->setValveModel(config_.valve);
+      ROS_INFO("die_cushion_ident: valve identified: %.1f Hz, damping %.2f, gain %.4f 1/V, dead time %.2f ms",
+               fit.parameters.natural_frequency, fit.parameters.damping, fit.parameters.gain,
+               fit.parameters.dead_time * 1e3);
+    } else {
+      ROS_WARN("die_cushion_ident: valve fit failed: %s", fit.message.c_str());
+    }
+  }
+  valve_model_pub_.publish(msg);
+}
+
+// ---- services ----
+
+bool IdentificationNode::startSweep(StartSweep::Request& req, StartSweep::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  SweepRequest request;
+  if (!req.frequencies.empty()) request.frequencies = req.frequencies;
+  if (req.amplitude != 0.0) request.amplitude = req.amplitude;
+  request.offset = req.offset;
+  if (req.settle_periods != 0.0) request.settle_periods = req.settle_periods;
+  if (req.integration_periods != 0.0) request.integration_periods = req.integration_periods;
+  const double now = ros::Time::now().toSec();
+  const std::string refusal = sweep_.start(request, now, plantCondition(now));
+  res.success = refusal.empty();
+  if (!res.success) {
+    res.message = "sweep refused: " + refusal;
+    ROS_WARN("die_cushion_ident: %s", res.message.c_str());
+    return true;
+  }
+  res.expected_duration = sweep_.request().totalDuration();
+  res.message = "sweep started: " + std::to_string(request.frequencies.size()) + " frequencies, about " +
+                formatted("%.1f", res.expected_duration) + " s";
+  last_sweep_outcome_.clear();
+  published_points_ = 0;
+  sweep_timer_ =
+      nh_.createTimer(ros::Duration(limits_.command_period), &IdentificationNode::onSweepTimer, this);
+  ROS_INFO("die_cushion_ident: %s", res.message.c_str());
+  return true;
+}
+
+bool IdentificationNode::abortSweep(AbortSweep::Request&, AbortSweep::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  res.success = sweep_.running();
+  if (!res.success) {
+    res.message = "no sweep is running";
+    return true;
+  }
+  sweep_.abort("aborted by request (~abort_sweep)");
+  res.message = "sweep aborted; the valve command returns to " + formatted("%g V", sweep_.request().offset);
+  return true;
+}
+
+bool IdentificationNode::setEffects(SetEffects::Request& req, SetEffects::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  IdentificationConfig changed = config_;
+  changed.effects = req.effects;
+  changed.custom_effects = req.custom_effects;
+  changed.initial_parameters.clear();
+  const auto problems = changed.validate();
+  if (!problems.empty()) {
+    res.success = false;
+    res.message = "effects refused: " + join(problems, "; ");
+    return true;
+  }
+  config_ = changed;
+  rebuildPipeline();
+  for (const auto& info : pipeline_->identifier().model().parameterInfos())
+    res.parameters.push_back(info.name);
+  res.success = true;
+  res.message = "model now: " + join(res.parameters, ", ") + "; the estimator restarted";
+  ROS_INFO("die_cushion_ident: %s", res.message.c_str());
+  return true;
+}
+
+bool IdentificationNode::reset(Reset::Request&, Reset::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  rebuildPipeline();
+  res.success = true;
+  res.message = "identification restarted from the initial values";
+  return true;
+}
+
+// ---- diagnostics ----
+
+void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status,
+                                       InputStream stream) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const StreamHealth& h = pipeline_->resampler().health(stream);
+  const double age = ros::Time::now().toSec() - h.last_stamp;
+  const int s = static_cast<int>(stream);
+  status.add("topic", nh_.resolveName(streamName(stream)));
+  status.add("rate [Hz]", formatted("%.1f", h.rate()));
+  status.add("received", h.received);
+  status.add("rejected", rejected_[s]);
+  status.add("last rejection", last_rejection_[s].empty() ? "none" : last_rejection_[s]);
+  status.add("late", h.late);
+  status.add("gaps", h.gaps);
+  status.add("stamp jitter [ms]", formatted("%.3f", h.interval_std * 1e3));
+  status.add("longest interval [ms]", formatted("%.1f", h.max_interval * 1e3));
+  status.add("age of last stamp [s]", formatted("%.3f", age));
+  if (h.received == 0 && rejected_[s] == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no messages received");
+  } else if (h.accepted == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "every message rejected: " + last_rejection_[s]);
+  } else if (age > config_.resampler.stale_timeout) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                   "stale: no message for " + formatted("%.2f s", age));
+  } else if (stream == InputStream::kValve && !(ros::Time::now().toSec() - spool_stamp_ < 1.0)) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "spool position not measured (NaN): predicted with the valve model");
+  } else if (rejected_[s] > 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   std::to_string(rejected_[s]) + " messages rejected, last: " + last_rejection_[s]);
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "receiving at " + formatted("%.0f Hz", h.rate()));
+  }
+}
+
+void IdentificationNode::diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const HydraulicEstimate e = pipeline_->identifier().estimate();
+  status.add("effects", e.effects.empty() ? std::string("none (base model)") : join(e.effects, ", "));
+  status.add("updates", e.updates);
+  status.add("steps without excitation", e.skipped_unexcited);
+  status.add("steps outside the model's validity", e.skipped_invalid);
+  double worst_relative_std = 0.0;
+  std::string problem;
+  for (const auto& p : e.parameters) {
+    status.add(p.name + " [" + p.unit + "]", formatted("%.4g", p.value) + " +/- " + formatted("%.2g", p.std));
+    if (!std::isfinite(p.value) || !std::isfinite(p.std)) problem = p.name + " is not finite";
+    if (p.value != 0.0) worst_relative_std = std::max(worst_relative_std, std::abs(p.std / p.value));
+  }
+  const double k = e.parameters[HydraulicModel::kBulkModulus].value;
+  // Effective bulk modulus of mineral oil with hoses: 0.3-2 GPa; entrained air can lower it further.
+  if (problem.empty() && e.updates > 100 && (k < 1e8 || k > 3e9)) {
+    problem = "bulk modulus " + formatted("%.3g Pa", k) + " is far outside the oil's range 1e8...3e9 Pa";
+  }
+  if (problem.empty() && e.updates > 100 && e.parameters[HydraulicModel::kValveFlowGain].value <= 0.0) {
+    problem = "valve flow gain is not positive";
+  }
+  if (problem.empty() && e.updates > 100 && e.parameters[HydraulicModel::kDeadVolume].value < 0.0) {
+    problem = "dead volume is negative";
+  }
+  status.add("largest relative std", formatted("%.3f", worst_relative_std));
+  if (!problem.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "implausible estimate: " + problem);
+  } else if (e.updates < 100) {
+    status.summary(
+        diagnostic_msgs::DiagnosticStatus::WARN,
+        "waiting for excitation (" + std::to_string(e.updates) + " updates; the press must stroke)");
+  } else if (worst_relative_std > 0.1) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "converging: a parameter still has " + formatted("%.0f %%", 100 * worst_relative_std) +
+                       " relative std");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "converged");
+  }
+}
+
+void IdentificationNode::diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  status.add("sweep", sweepStateName(sweep_.state()));
+  status.add("model used for spool prediction", formatted("%.1f Hz", config_.valve.natural_frequency) +
+                                                    ", D " + formatted("%.2f", config_.valve.damping) +
+                                                    ", K " + formatted("%.4g 1/V", config_.valve.gain) +
+                                                    ", Td " +
+                                                    formatted("%.2f ms", config_.valve.dead_time * 1e3));
+  if (sweep_.running()) {
+    status.add("frequency [Hz]", formatted("%.1f", sweep_.currentFrequency()));
+    status.add("progress", std::to_string(sweep_.currentIndex()) + " of " +
+                               std::to_string(sweep_.request().frequencies.size()));
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "sweep running");
+    return;
+  }
+  if (sweep_.state() == ValveSweep::State::kAborted) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "last sweep aborted: " + sweep_.abortReason());
+    return;
+  }
+  if (sweep_.state() == ValveSweep::State::kFinished && !sweep_.fit().success) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "last sweep not usable: " + sweep_.fit().message);
+    return;
+  }
+  if (!last_valve_fit_.success) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "not identified yet (configured model in use)");
+    return;
+  }
+  const ServoValveFit& f = last_valve_fit_;
+  status.add("identified natural frequency [Hz]", formatted("%.2f", f.parameters.natural_frequency));
+  status.add("identified damping", formatted("%.3f", f.parameters.damping));
+  status.add("identified gain [1/V]", formatted("%.4g", f.parameters.gain));
+  status.add("identified dead time [ms]", formatted("%.3f", f.parameters.dead_time * 1e3));
+  status.add("points distorted", f.points_rejected);
+  if (f.reduced_chi_square > 10.0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "identified, but the 2nd-order model misses the measured response (chi2/dof " +
+                       formatted("%.1f", f.reduced_chi_square) + ")");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "identified by the last sweep and in use");
+  }
+}
+
+void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double rms = std::sqrt(residual_square_mean_);
+  status.add("simulation error rms [bar]", formatted("%.2f", rms * 1e-5));
+  status.add("equation error rms [bar/s]",
+             formatted("%.1f", pipeline_->identifier().estimate().equation_error_rms * 1e-5));
+  int worst = -1;
+  for (int i = 0; i < 6; ++i) {
+    status.add(
+        std::string("simulation error rms in ") + strokePhaseName(static_cast<StrokePhase>(i)) + " [bar]",
+        formatted("%.2f", std::sqrt(phase_square_error_[i]) * 1e-5));
+    if (worst < 0 || phase_square_error_[i] > phase_square_error_[worst]) worst = i;
+  }
+  const std::string where = std::string("worst in ") + strokePhaseName(static_cast<StrokePhase>(worst));
+  if (residual_samples_ < 500) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "not enough data yet");
+  } else if (rms > settings_.adequacy_error_error) {
+    status.summary(
+        diagnostic_msgs::DiagnosticStatus::ERROR,
+        "the model misses the pressure by " + formatted("%.1f bar", rms * 1e-5) + " rms, " + where);
+  } else if (rms > settings_.adequacy_warn_error) {
+    status.summary(
+        diagnostic_msgs::DiagnosticStatus::WARN,
+        "the model misses the pressure by " + formatted("%.1f bar", rms * 1e-5) + " rms, " + where);
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK,
+                   "the model follows the pressure within " + formatted("%.1f bar", rms * 1e-5) + " rms");
+  }
+}
+
+}  // namespace die_cushion_ident

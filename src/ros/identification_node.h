@@ -1,0 +1,98 @@
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+#include <sensor_msgs/FluidPressure.h>
+#include <sensor_msgs/JointState.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "die_cushion_ident/AbortSweep.h"
+#include "die_cushion_ident/Reset.h"
+#include "die_cushion_ident/SetEffects.h"
+#include "die_cushion_ident/StartSweep.h"
+#include "die_cushion_ident/ValveSignal.h"
+#include "die_cushion_ident/core/free_run_pressure.h"
+#include "die_cushion_ident/core/identification_pipeline.h"
+#include "die_cushion_ident/core/stroke_phase_classifier.h"
+#include "die_cushion_ident/core/valve_sweep.h"
+#include "ros_parameters.h"
+
+namespace die_cushion_ident {
+
+/// The ROS face of the identification, shared by the nodelet and the standalone node: subscribes to the
+/// three input topics, runs the core pipeline on message stamps, publishes estimates, the model comparison
+/// and the valve sweep's results, offers the services and reports diagnostics. All core state is guarded
+/// by one mutex, so a multi-threaded nodelet manager may call back concurrently.
+class IdentificationNode {
+ public:
+  /// Throws std::invalid_argument with every invalid parameter listed.
+  IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  /// Aborts a running sweep ("shutdown") and sends the valve back to its offset.
+  ~IdentificationNode();
+
+ private:
+  void onPressure(const sensor_msgs::FluidPressure::ConstPtr& msg);
+  void onPosition(const sensor_msgs::JointState::ConstPtr& msg);
+  void onValve(const ValveSignal::ConstPtr& msg);
+  void push(InputStream stream, const StreamSample& sample);
+  void rebuildPipeline();
+  void onGridSample(const GridSample& g, const HydraulicIdentifier& identifier);
+  void onIdentificationStep(const HydraulicIdentifier& identifier);
+
+  void onSweepTimer(const ros::TimerEvent&);
+  void publishSweepCommand(double voltage);
+  void publishFrequencyResponse();
+  void finishSweep();
+  PlantCondition plantCondition(double now) const;
+
+  bool startSweep(StartSweep::Request& request, StartSweep::Response& response);
+  bool abortSweep(AbortSweep::Request& request, AbortSweep::Response& response);
+  bool setEffects(SetEffects::Request& request, SetEffects::Response& response);
+  bool reset(Reset::Request& request, Reset::Response& response);
+
+  void diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status, InputStream stream);
+  void diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle nh_, pnh_;
+  IdentificationConfig config_;
+  SweepLimits limits_;
+  NodeSettings settings_;
+
+  mutable std::mutex mutex_;
+  std::unique_ptr<IdentificationPipeline> pipeline_;
+  std::unique_ptr<FreeRunPressure> free_run_;
+  StrokePhaseClassifier classifier_;
+  ValveSweep sweep_;
+  ros::Timer sweep_timer_;
+  ServoValveFit last_valve_fit_;
+  std::string last_sweep_outcome_;
+  std::size_t published_points_ = 0;
+
+  // Latest comparison values (grid rate), published at the identification rate.
+  GridSample last_grid_;
+  double modelled_pressure_ = 0.0;
+  double residual_square_mean_ = 0.0;  // exponentially weighted over ~5 s of free-run samples
+  std::uint64_t residual_samples_ = 0;
+  StrokePhase phase_ = StrokePhase::kRest;
+  double phase_square_error_[6] = {0, 0, 0, 0, 0, 0};  // per phase, same weighting
+
+  // Latest plant signals for the sweep's safety checks: values and their stamps [s].
+  double pressure_ = std::numeric_limits<double>::quiet_NaN(), pressure_stamp_ = -1e18;
+  double velocity_ = std::numeric_limits<double>::quiet_NaN(), position_ = 0.0, position_stamp_ = -1e18;
+  double spool_stamp_ = -1e18;
+  std::uint64_t rejected_[kInputStreamCount] = {0, 0, 0};
+  std::string last_rejection_[kInputStreamCount];
+
+  ros::Subscriber pressure_sub_, position_sub_, valve_sub_;
+  ros::Publisher estimate_pub_, comparison_pub_, response_pub_, valve_model_pub_, command_pub_;
+  ros::ServiceServer start_srv_, abort_srv_, effects_srv_, reset_srv_;
+  diagnostic_updater::Updater updater_;
+  ros::Timer diagnostic_timer_;
+};
+
+}  // namespace die_cushion_ident

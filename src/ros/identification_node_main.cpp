@@ -1,0 +1,17 @@
+// identification_node: the nodelet's code as a standalone node for `rosrun`.
+#include <ros/ros.h>
+
+#include "identification_node.h"
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "identification_node");
+  ros::NodeHandle nh, pnh("~");
+  try {
+    die_cushion_ident::IdentificationNode node(nh, pnh);
+    ros::spin();
+  } catch (const std::exception& e) {
+    ROS_FATAL("die_cushion_ident not started: %s", e.what());
+    return 2;
+  }
+  return 0;
+}

@@ -1,0 +1,84 @@
+#include "ros_parameters.h"
+
+#include <cmath>
+#include <functional>
+#include <sstream>
+
+namespace die_cushion_ident {
+
+namespace {
+
+// A numeric parameter, if present; a present parameter of another type is a problem, not a default.
+void readNumber(const ros::NodeHandle& pnh, const std::string& key, std::vector<std::string>* problems,
+                const std::function<void(double)>& set) {
+  XmlRpc::XmlRpcValue value;
+  if (!pnh.getParam(key, value)) return;
+  if (value.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+    set(static_cast<double>(value));
+  } else if (value.getType() == XmlRpc::XmlRpcValue::TypeInt) {
+    set(static_cast<int>(value));
+  } else {
+    problems->push_back("~" + key + " is invalid: must be a number");
+  }
+}
+
+void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector<std::string>* out,
+                 std::vector<std::string>* problems) {
+  XmlRpc::XmlRpcValue value;
+  if (!pnh.getParam(key, value)) return;
+  if (value.getType() == XmlRpc::XmlRpcValue::TypeString) {  // "a,b" or "a"
+    std::stringstream stream(static_cast<std::string>(value));
+    std::string item;
+    while (std::getline(stream, item, ',')) {
+      if (!item.empty()) out->push_back(item);
+    }
+    return;
+  }
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeArray) {
+    problems->push_back("~" + key + " is invalid: must be a list of strings");
+    return;
+  }
+  for (int i = 0; i < value.size(); ++i) {
+    if (value[i].getType() != XmlRpc::XmlRpcValue::TypeString) {
+      problems->push_back("~" + key + " is invalid: element " + std::to_string(i) + " is not a string");
+      continue;
+    }
+    out->push_back(static_cast<std::string>(value[i]));
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
+                                        SweepLimits* limits, NodeSettings* settings) {
+  std::vector<std::string> problems;
+  for (const auto& key : numericConfigKeys()) {
+    readNumber(pnh, key, &problems, [&](double v) { setNumericConfigValue(*config, key, v); });
+  }
+  for (const auto& key : sweepLimitKeys()) {
+    readNumber(pnh, key, &problems, [&](double v) { setSweepLimit(*limits, key, v); });
+  }
+  readNumber(pnh, "adequacy_warn_error", &problems, [&](double v) { settings->adequacy_warn_error = v; });
+  readNumber(pnh, "adequacy_error_error", &problems, [&](double v) { settings->adequacy_error_error = v; });
+  std::string form;
+  if (pnh.getParam("regression_form", form) && !parseRegressionForm(form, &config->regression_form)) {
+    problems.push_back("~regression_form = " + form + " is invalid: allowed integral, derivative");
+  }
+  readStrings(pnh, "effects", &config->effects, &problems);
+  readStrings(pnh, "custom_effects", &config->custom_effects, &problems);
+
+  for (const auto& p : config->validate()) problems.push_back("~" + p);
+  for (const auto& p : limits->validate()) problems.push_back("~" + p);
+  const auto positive = [&](const char* key, double v) {
+    if (!(std::isfinite(v) && v > 0.0)) {
+      std::ostringstream s;
+      s << "~" << key << " = " << v << " is invalid: allowed > 0";
+      problems.push_back(s.str());
+    }
+  };
+  positive("adequacy_warn_error", settings->adequacy_warn_error);
+  positive("adequacy_error_error", settings->adequacy_error_error);
+  return problems;
+}
+
+}  // namespace die_cushion_ident

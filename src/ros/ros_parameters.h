@@ -1,0 +1,24 @@
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/identification_config.h"
+#include "die_cushion_ident/core/valve_sweep.h"
+
+namespace die_cushion_ident {
+
+/// Settings of the live node beyond the identification and sweep configuration.
+struct NodeSettings {
+  double adequacy_warn_error = 3e5;    ///< [Pa] free-run pressure error RMS above which the model is doubtful
+  double adequacy_error_error = 10e5;  ///< [Pa] ... and above which it is wrong
+};
+
+/// Reads the private parameters (same names as the analyze_bag config keys) into `config`, `limits` and
+/// `settings`. Returns every problem as "~name = value is invalid: allowed ..."; empty when all are usable.
+std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
+                                        SweepLimits* limits, NodeSettings* settings);
+
+}  // namespace die_cushion_ident
