@@ -13,7 +13,7 @@ APT_PACKAGES=(
   libgtest-dev googletest libbenchmark-dev
   libros-rosgraph-msgs-dev libvisualization-msgs-dev
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-rospy python3-diagnostic-msgs rosbash
-  python3-yaml python3-numpy
+  python3-yaml python3-numpy python3-matplotlib
 )
 
 log() { printf '\033[1m[die_cushion_ident]\033[0m %s\n' "$*" >&2; }

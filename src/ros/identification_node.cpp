@@ -7,6 +7,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "cushion_markers.h"
 
 namespace die_cushion_ident {
 
@@ -67,6 +68,8 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   response_pub_ = pnh_.advertise<FrequencyResponse>("frequency_response", 1, true);
   valve_model_pub_ = pnh_.advertise<ValveModel>("valve_model", 1, true);
   command_pub_ = nh_.advertise<ValveSignal>("valve_command", 10);
+  markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+  pnh_.param("frame_id", frame_id_, frame_id_);
 
   const auto hints = ros::TransportHints().tcpNoDelay();
   pressure_sub_ = nh_.subscribe("pressure", 1000, &IdentificationNode::onPressure, this, hints);
@@ -220,6 +223,16 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
     msg.skipped_unexcited = e.skipped_unexcited;
     msg.skipped_invalid = e.skipped_invalid;
     estimate_pub_.publish(msg);
+  }
+  // rviz needs no more than 10 Hz.
+  if (markers_pub_.getNumSubscribers() > 0 && ++steps_since_markers_ * config_.identification_period >= 0.1) {
+    steps_since_markers_ = 0;
+    CushionView view;
+    view.position = last_grid_.x;
+    view.pressure = last_grid_.p;
+    view.simulation_error = std::sqrt(residual_square_mean_);
+    view.phase = phase_;
+    markers_pub_.publish(cushionMarkers(config_.geometry, view, e, frame_id_, stamp));
   }
   if (comparison_pub_.getNumSubscribers() > 0) {
     ModelComparison msg;

@@ -89,7 +89,9 @@ class IdentificationNode {
   std::string last_rejection_[kInputStreamCount];
 
   ros::Subscriber pressure_sub_, position_sub_, valve_sub_;
-  ros::Publisher estimate_pub_, comparison_pub_, response_pub_, valve_model_pub_, command_pub_;
+  ros::Publisher estimate_pub_, comparison_pub_, response_pub_, valve_model_pub_, command_pub_, markers_pub_;
+  std::string frame_id_ = "die_cushion";
+  std::uint64_t steps_since_markers_ = 0;
   ros::ServiceServer start_srv_, abort_srv_, effects_srv_, reset_srv_;
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostic_timer_;
