@@ -24,8 +24,8 @@ visualization_msgs::Marker marker(int id, int type, const std::string& frame, co
 std::string line(const IdentifiedParameter& p) {
   char buffer[160];
   const double relative = p.value != 0.0 ? 100.0 * std::abs(p.std / p.value) : 0.0;
-  std::snprintf(buffer, sizeof(buffer), "%s = %.4g %s (+/- %.1f %%)\n", p.name.c_str(), p.value, p.unit.c_str(),
-                relative);
+  std::snprintf(buffer, sizeof(buffer), "%s = %.4g %s (+/- %.1f %%)\n", p.name.c_str(), p.value,
+                p.unit.c_str(), relative);
   return buffer;
 }
 

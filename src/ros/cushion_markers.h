@@ -1,8 +1,8 @@
 #pragma once
 
-#include <string>
-
 #include <visualization_msgs/MarkerArray.h>
+
+#include <string>
 
 #include "die_cushion_ident/core/hydraulic_identifier.h"
 #include "die_cushion_ident/core/press_cycle.h"
@@ -12,9 +12,9 @@ namespace die_cushion_ident {
 /// What the rviz view shows: the cylinder, the piston at its measured stroke, the oil column coloured by
 /// pressure (blue at 0 bar, red at supply pressure) and the current estimates as text.
 struct CushionView {
-  double position = 0.0;           ///< x [m]
-  double pressure = 0.0;           ///< p [Pa]
-  double simulation_error = 0.0;   ///< free-run error RMS [Pa]
+  double position = 0.0;          ///< x [m]
+  double pressure = 0.0;          ///< p [Pa]
+  double simulation_error = 0.0;  ///< free-run error RMS [Pa]
   StrokePhase phase = StrokePhase::kRest;
 };
 

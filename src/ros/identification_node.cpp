@@ -1,13 +1,15 @@
 #include "identification_node.h"
 
+#include <chrono>
 #include <cmath>
 #include <sstream>
+#include <thread>
 
+#include "cushion_markers.h"
 #include "die_cushion_ident/FrequencyResponse.h"
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
-#include "cushion_markers.h"
 
 namespace die_cushion_ident {
 
@@ -71,10 +73,12 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
   pnh_.param("frame_id", frame_id_, frame_id_);
 
-  const auto hints = ros::TransportHints().tcpNoDelay();
-  pressure_sub_ = nh_.subscribe("pressure", 1000, &IdentificationNode::onPressure, this, hints);
-  position_sub_ = nh_.subscribe("position", 1000, &IdentificationNode::onPosition, this, hints);
-  valve_sub_ = nh_.subscribe("valve", 1000, &IdentificationNode::onValve, this, hints);
+  // The estimates run on stamps, so pressure and position may arrive batched (Nagle: fewer wake-ups and
+  // system calls); the valve topic feeds the sweep's safety checks and must not wait.
+  pressure_sub_ = nh_.subscribe("pressure", 1000, &IdentificationNode::onPressure, this);
+  position_sub_ = nh_.subscribe("position", 1000, &IdentificationNode::onPosition, this);
+  valve_sub_ =
+      nh_.subscribe("valve", 1000, &IdentificationNode::onValve, this, ros::TransportHints().tcpNoDelay());
 
   start_srv_ = pnh_.advertiseService("start_sweep", &IdentificationNode::startSweep, this);
   abort_srv_ = pnh_.advertiseService("abort_sweep", &IdentificationNode::abortSweep, this);
@@ -105,6 +109,11 @@ IdentificationNode::~IdentificationNode() {
   if (!sweep_.running()) return;
   sweep_.abort("shutdown");
   if (const auto u = sweep_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
+}
+
+bool IdentificationNode::sweepRunning() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return sweep_commanding_;
 }
 
 void IdentificationNode::rebuildPipeline() {
@@ -270,7 +279,10 @@ void IdentificationNode::onSweepTimer(const ros::TimerEvent&) {
   if (u) publishSweepCommand(*u);
   if (!sweep_.running()) {
     finishSweep();
-    if (!u) sweep_timer_.stop();  // the offset has been sent
+    if (!u) {  // the offset has been sent
+      sweep_timer_.stop();
+      sweep_commanding_ = false;
+    }
   }
 }
 
@@ -384,8 +396,10 @@ bool IdentificationNode::startSweep(StartSweep::Request& req, StartSweep::Respon
                 formatted("%.1f", res.expected_duration) + " s";
   last_sweep_outcome_.clear();
   published_points_ = 0;
+  // Commands at twice the valve rate, so that every valve update finds a fresh one despite scheduling jitter.
   sweep_timer_ =
-      nh_.createTimer(ros::Duration(limits_.command_period), &IdentificationNode::onSweepTimer, this);
+      nh_.createTimer(ros::Duration(0.5 * limits_.command_period), &IdentificationNode::onSweepTimer, this);
+  sweep_commanding_ = true;
   ROS_INFO("die_cushion_ident: %s", res.message.c_str());
   return true;
 }
@@ -578,6 +592,14 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK,
                    "the model follows the pressure within " + formatted("%.1f bar", rms * 1e-5) + " rms");
+  }
+}
+
+void spinBatched(ros::CallbackQueue& queue, const IdentificationNode& node, const std::atomic<bool>& stop) {
+  while (ros::ok() && !stop) {
+    queue.callAvailable();
+    std::this_thread::sleep_for(node.sweepRunning() ? std::chrono::microseconds(200)
+                                                    : std::chrono::microseconds(5000));
   }
 }
 

@@ -1,10 +1,12 @@
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/JointState.h>
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -32,6 +34,8 @@ class IdentificationNode {
   IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh);
   /// Aborts a running sweep ("shutdown") and sends the valve back to its offset.
   ~IdentificationNode();
+  /// True while a sweep commands the valve (the owner then takes callbacks more often).
+  bool sweepRunning() const;
 
  private:
   void onPressure(const sensor_msgs::FluidPressure::ConstPtr& msg);
@@ -69,6 +73,7 @@ class IdentificationNode {
   StrokePhaseClassifier classifier_;
   ValveSweep sweep_;
   ros::Timer sweep_timer_;
+  bool sweep_commanding_ = false;  // the sweep timer runs (until the offset has been sent)
   ServoValveFit last_valve_fit_;
   std::string last_sweep_outcome_;
   std::size_t published_points_ = 0;
@@ -96,5 +101,10 @@ class IdentificationNode {
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostic_timer_;
 };
+
+/// Takes the node's callbacks in batches every 5 ms (every 0.2 ms while a sweep commands the valve) until
+/// `stop` or shutdown, instead of waking up for each of the 3000 messages per second: the estimates run on
+/// stamps, so batching costs nothing but saves most of roscpp's per-message thread hand-overs.
+void spinBatched(ros::CallbackQueue& queue, const IdentificationNode& node, const std::atomic<bool>& stop);
 
 }  // namespace die_cushion_ident

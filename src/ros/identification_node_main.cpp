@@ -1,6 +1,8 @@
 // identification_node: the nodelet's code as a standalone node for `rosrun`.
 #include <ros/ros.h>
 
+#include <atomic>
+
 #include "identification_node.h"
 
 int main(int argc, char** argv) {
@@ -8,7 +10,8 @@ int main(int argc, char** argv) {
   ros::NodeHandle nh, pnh("~");
   try {
     die_cushion_ident::IdentificationNode node(nh, pnh);
-    ros::spin();
+    const std::atomic<bool> never(false);
+    die_cushion_ident::spinBatched(*ros::getGlobalCallbackQueue(), node, never);
   } catch (const std::exception& e) {
     ROS_FATAL("die_cushion_ident not started: %s", e.what());
     return 2;

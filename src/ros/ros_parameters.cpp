@@ -26,12 +26,27 @@ void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector
                  std::vector<std::string>* problems) {
   XmlRpc::XmlRpcValue value;
   if (!pnh.getParam(key, value)) return;
-  if (value.getType() == XmlRpc::XmlRpcValue::TypeString) {  // "a,b" or "a"
-    std::stringstream stream(static_cast<std::string>(value));
+  if (value.getType() == XmlRpc::XmlRpcValue::TypeString) {  // "a,b", "a" or "[a, b]" from a command line
+    std::string text = value;
+    if (text.size() >= 2 && text.front() == '[' && text.back() == ']') text = text.substr(1, text.size() - 2);
+    // Split at commas outside parentheses: a custom effect's expression may hold max(p, 0).
+    int depth = 0;
     std::string item;
-    while (std::getline(stream, item, ',')) {
-      if (!item.empty()) out->push_back(item);
+    const auto flush = [&] {
+      const auto first = item.find_first_not_of(" \t'\"");
+      const auto last = item.find_last_not_of(" \t'\"");
+      if (first != std::string::npos) out->push_back(item.substr(first, last - first + 1));
+      item.clear();
+    };
+    for (char c : text) {
+      depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+      if (c == ',' && depth == 0) {
+        flush();
+      } else {
+        item += c;
+      }
     }
+    flush();
     return;
   }
   if (value.getType() != XmlRpc::XmlRpcValue::TypeArray) {

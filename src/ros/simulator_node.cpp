@@ -3,6 +3,7 @@
 // `valve_command` while a sweep sends it, and publishes its true parameters on ~truth and ~valve_truth.
 // Under /use_sim_time it is the clock: it publishes /clock and runs ~realtime_factor times faster than
 // real time (0 = as fast as possible).
+#include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/FluidPressure.h>
@@ -11,6 +12,7 @@
 #include <atomic>
 #include <cmath>
 #include <mutex>
+#include <pluginlib/class_list_macros.hpp>
 #include <thread>
 
 #include "die_cushion_ident/ParameterEstimate.h"
@@ -108,12 +110,14 @@ class SimulatorNode {
     publishTruth();
   }
 
+  void stop() { stop_ = true; }
+  /// Integrates and publishes until shutdown, stop() or ~duration.
   void run() {
     // Sim time starts at 1000 s: ROS treats time zero as "not set".
     const double epoch = sim_time_ ? 1000.0 : ros::WallTime::now().toSec();
     const ros::WallTime wall_start = ros::WallTime::now();
     std::vector<SimulatedMeasurement> out;
-    while (ros::ok() && (duration_ <= 0.0 || sim_.state().t < duration_)) {
+    while (ros::ok() && !stop_ && (duration_ <= 0.0 || sim_.state().t < duration_)) {
       const double now = epoch + sim_.state().t;
       {
         std::lock_guard<std::mutex> lock(command_mutex_);
@@ -152,28 +156,29 @@ class SimulatorNode {
   void publish(const SimulatedMeasurement& m, double epoch) {
     const ros::Time stamp(epoch + m.sample.stamp);
     switch (m.stream) {
+      // Shared pointers: inside a nodelet manager the messages reach the identification without copies.
       case InputStream::kPressure: {
-        sensor_msgs::FluidPressure msg;
-        msg.header.stamp = stamp;
-        msg.header.frame_id = "die_cushion";
-        msg.fluid_pressure = m.sample.first;
+        auto msg = boost::make_shared<sensor_msgs::FluidPressure>();
+        msg->header.stamp = stamp;
+        msg->header.frame_id = "die_cushion";
+        msg->fluid_pressure = m.sample.first;
         pressure_pub_.publish(msg);
         break;
       }
       case InputStream::kPosition: {
-        sensor_msgs::JointState msg;
-        msg.header.stamp = stamp;
-        msg.name = {"cushion"};
-        msg.position = {m.sample.first};
-        if (std::isfinite(m.sample.second)) msg.velocity = {m.sample.second};
+        auto msg = boost::make_shared<sensor_msgs::JointState>();
+        msg->header.stamp = stamp;
+        msg->name = {"cushion"};
+        msg->position = {m.sample.first};
+        if (std::isfinite(m.sample.second)) msg->velocity = {m.sample.second};
         position_pub_.publish(msg);
         break;
       }
       case InputStream::kValve: {
-        ValveSignal msg;
-        msg.header.stamp = stamp;
-        msg.voltage = m.sample.first;
-        msg.spool_position = m.sample.second;
+        auto msg = boost::make_shared<ValveSignal>();
+        msg->header.stamp = stamp;
+        msg->voltage = m.sample.first;
+        msg->spool_position = m.sample.second;
         valve_pub_.publish(msg);
         break;
       }
@@ -211,6 +216,7 @@ class SimulatorNode {
   DieCushionSimulator sim_;
   double realtime_factor_ = 1.0, command_timeout_ = 0.05, duration_ = 0.0;
   bool sim_time_ = false;
+  std::atomic<bool> stop_{false};
   std::mutex command_mutex_;
   double command_ = 0.0, command_time_ = -1e18;
   bool received_command_ = false;
@@ -219,8 +225,35 @@ class SimulatorNode {
 };
 
 }  // namespace
+
+/// The simulator inside a nodelet manager (die_cushion_ident/SimulatorNodelet): same parameters, run in its
+/// own thread; together with IdentificationNodelet in one manager no message is serialised.
+class SimulatorNodelet : public nodelet::Nodelet {
+ public:
+  ~SimulatorNodelet() override {
+    if (node_) node_->stop();
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  void onInit() override {
+    try {
+      node_ = std::make_unique<SimulatorNode>(getNodeHandle(), getPrivateNodeHandle());
+      thread_ = std::thread([this] { node_->run(); });
+    } catch (const std::exception& e) {
+      NODELET_FATAL("simulator not started: %s", e.what());
+    }
+  }
+
+  std::unique_ptr<SimulatorNode> node_;
+  std::thread thread_;
+};
+
 }  // namespace die_cushion_ident
 
+PLUGINLIB_EXPORT_CLASS(die_cushion_ident::SimulatorNodelet, nodelet::Nodelet)
+
+#ifndef DIE_CUSHION_IDENT_NODELET_ONLY
 int main(int argc, char** argv) {
   ros::init(argc, argv, "simulator_node");
   ros::NodeHandle nh, pnh("~");
@@ -235,3 +268,4 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+#endif

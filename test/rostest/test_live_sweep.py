@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """A sweep started through the service identifies the simulated valve; the valve command follows the sweep
 and returns to the offset; an aborted sweep says so; a second request while running is refused."""
+import subprocess
 import threading
 import unittest
 
@@ -95,6 +96,17 @@ class LiveSweep(unittest.TestCase):
         outside = self.request(offset=1.8)  # 1.8 + 0.5 V exceeds sweep_max_voltage = 2 V
         self.assertFalse(outside.success)
         self.assertIn("command range", outside.message)
+
+    def test_3_invalid_parameters_are_refused_at_start_up(self):
+        result = subprocess.run(
+            ["rosrun", "die_cushion_ident", "identification_node", "__name:=bad_ident", "_forgetting_factor:=2.0",
+             "_moving_average_width:=30", "_effects:=[leakage, no_such_effect]", "_sweep_max_amplitude:=-1"],
+            capture_output=True, text=True, timeout=60)
+        self.assertEqual(result.returncode, 2, result.stdout + result.stderr)
+        output = result.stdout + result.stderr
+        for expected in ["~forgetting_factor = 2 is invalid", "~moving_average_width = 30 is invalid",
+                         "no_such_effect", "~sweep_max_amplitude = -1 is invalid: allowed > 0 V"]:
+            self.assertIn(expected, output)
 
 
 if __name__ == "__main__":
