@@ -44,7 +44,7 @@ visualization_msgs::MarkerArray cushionMarkers(const CylinderGeometry& geometry,
   wall.scale.x = wall.scale.y = 2.2 * radius;
   wall.scale.z = stroke + 0.02;
   wall.color.r = wall.color.g = wall.color.b = 0.6;
-  wall.color.a = 0.25;
+  wall.color.a = 0.15;
   array.markers.push_back(wall);
 
   // The pressurised chamber lies below the piston: from -x down to the bottom of the stroke.
@@ -57,7 +57,7 @@ visualization_msgs::MarkerArray cushionMarkers(const CylinderGeometry& geometry,
   oil.color.r = share;
   oil.color.g = 0.2;
   oil.color.b = 1.0 - share;
-  oil.color.a = 0.8;
+  oil.color.a = 1.0;
   array.markers.push_back(oil);
 
   auto piston = marker(2, visualization_msgs::Marker::CYLINDER, frame, stamp);
