@@ -16,8 +16,9 @@ namespace die_cushion_ident {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// Weight of a new squared residual in the running means: ~5 s of 2 ms samples.
-constexpr double kResidualWeight = 1.0 / 2500.0;
+// Weight of a new squared residual in the running means: about one press cycle (2.6 s) of 2 ms samples,
+// long enough to average over the phases, short enough to forget the estimator's start.
+constexpr double kResidualWeight = 1.0 / 1300.0;
 
 const char* streamName(InputStream stream) {
   switch (stream) {

@@ -70,7 +70,7 @@ class LiveIdentification(unittest.TestCase):
 
     def test_1_estimates_converge_to_truth_and_diagnostics_are_ok(self):
         wait_for(lambda: self.truth.get() is not None and self.estimate.get() is not None, 30, "estimates")
-        rospy.sleep(12.0)  # four press cycles
+        rospy.sleep(16.0)  # six press cycles
         estimate, truth = self.estimate.get(), self.truth.get()
         self.assertEqual(list(estimate.effects), ["leakage"])
         for name, bound in [("bulk_modulus", 0.05), ("valve_flow_gain", 0.02), ("leakage_conductance", 0.2)]:
@@ -110,6 +110,9 @@ class LiveIdentification(unittest.TestCase):
         wait_for(lambda: list(self.estimate.get().effects) == [], 5, "the base model's estimates")
         rospy.sleep(12.0)
         without_leakage = self.comparison.get().simulation_error_rms
+        adequacy = self.diagnostic("model adequacy")
+        self.assertIn(adequacy.level, (DiagnosticStatus.WARN, DiagnosticStatus.ERROR), adequacy.message)
+        self.assertIn("misses the pressure", adequacy.message)
         self.assertGreater(without_leakage, 2.0 * with_leakage,
                            "leaving out the plant's leakage must show in the error (%.2f vs %.2f bar)"
                            % (without_leakage * 1e-5, with_leakage * 1e-5))
