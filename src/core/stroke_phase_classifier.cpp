@@ -34,7 +34,7 @@ StrokePhase StrokePhaseClassifier::classify(const GridSample& s) {
   deepest_ = std::max(deepest_, s.x);
 
   const double v = v_filtered_;
-  const bool lower_part = deepest_ > 0.0 && s.x > 0.5 * deepest_;
+  const bool lower_part = deepest_ > config_.min_stroke && s.x > 0.5 * deepest_;
   if (v < -config_.min_velocity) {
     phase_ = StrokePhase::kReturn;
   } else if (v > config_.min_velocity) {

@@ -22,6 +22,7 @@ class StrokePhaseClassifier {
     double release_rate = 5.0;         ///< [1/s] a pressure falling faster than this share of itself per
                                        ///< second while standing is release
     double smoothing_time = 0.01;      ///< [s] of the velocity and pressure-rate filters
+    double min_stroke = 0.01;          ///< [m] shorter strokes are not strokes (position sensor noise)
   };
 
   StrokePhaseClassifier() : StrokePhaseClassifier(Config()) {}

@@ -1,0 +1,46 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/hydraulic_model.h"
+#include "die_cushion_ident/core/press_cycle.h"
+#include "die_cushion_ident/core/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// Free-run pressure error of the samples that fall into one region of operation.
+struct RegionError {
+  std::string dimension;         ///< "phase", "pressure", "velocity" or "opening"
+  std::string label;             ///< "drawing", "100...150 bar", ...
+  double low = 0.0, high = 0.0;  ///< bin edges in SI units (phases: the phase index twice)
+  int samples = 0;
+  double rms = 0.0;            ///< [Pa] free-run error RMS
+  double mean_residual = 0.0;  ///< [Pa] measured - modelled: > 0 where the model under-predicts
+};
+
+/// Stroke phase and cycle of every grid sample: phases from StrokePhaseClassifier, a new cycle at every
+/// impact (the ram hitting the cushion). Samples before the first impact belong to cycle -1.
+struct StrokeSegmentation {
+  std::vector<StrokePhase> phase;
+  std::vector<int> cycle;
+  int cycles = 0;  ///< complete cycles: from one impact to the next
+};
+StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid);
+
+/// The identified model against the measurement over a recording: free run (FreeRunPressure) with the
+/// given parameters, and where it fails.
+struct ModelAssessment {
+  int samples = 0;                    ///< grid samples compared (model running free, not re-anchored)
+  double simulation_error_rms = 0.0;  ///< [Pa]
+  std::vector<double> modelled;       ///< [Pa] per grid sample; NaN where the model is not running
+  std::vector<RegionError> by_phase, by_pressure, by_velocity, by_opening;
+  /// The worst regions in words, e.g. "the model under-predicts the pressure during bottom_hold by 38 bar".
+  std::vector<std::string> worst_regions;
+};
+
+ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const HydraulicModel& model, const ParameterVector& parameters,
+                            double min_pressure);
+
+}  // namespace die_cushion_ident
