@@ -49,7 +49,8 @@ std::vector<RegionError> binned(const char* dimension, const std::vector<double>
     r.dimension = dimension;
     r.low = edges[b];
     r.high = edges[b + 1];
-    r.label = format("%g", r.low * display_scale) + "..." + format("%g", r.high * display_scale) + " " + unit;
+    r.label = format("%g", r.low * display_scale) + "..." + format("%g", r.high * display_scale) +
+              (unit[0] != '\0' ? std::string(" ") + unit : std::string());
     r.samples = acc[b].n;
     r.rms = std::sqrt(acc[b].sum_squares / acc[b].n);
     r.mean_residual = acc[b].sum / acc[b].n;
@@ -120,7 +121,7 @@ ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSeg
                          grid, a.modelled, [](const GridSample& g) { return g.p; });
   a.by_velocity = binned("velocity", {-10, -0.1, -0.02, -0.002, 0.002, 0.02, 0.1, 10}, 1.0, "m/s", grid,
                          a.modelled, [](const GridSample& g) { return g.v; });
-  a.by_opening = binned("opening", {-1.0001, -0.5, -0.2, -0.05, 0.0, 0.05, 0.2, 0.5, 1.0001}, 1.0, "", grid,
+  a.by_opening = binned("opening", {-1.0, -0.5, -0.2, -0.05, 0.0, 0.05, 0.2, 0.5, 1.0 + 1e-9}, 1.0, "", grid,
                         a.modelled, [](const GridSample& g) { return g.y; });
 
   // The worst regions with at least 1 % of the samples, worst first, each dimension once.

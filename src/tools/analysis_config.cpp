@@ -1,0 +1,95 @@
+#include "analysis_config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <fstream>
+
+namespace die_cushion_ident {
+
+namespace {
+
+std::vector<std::string> stringList(const YAML::Node& node, const std::string& key,
+                                    std::vector<std::string>* problems) {
+  std::vector<std::string> out;
+  if (node.IsScalar()) {
+    out.push_back(node.as<std::string>());
+  } else if (node.IsSequence()) {
+    for (const auto& item : node) {
+      if (item.IsScalar()) {
+        out.push_back(item.as<std::string>());
+      } else {
+        problems->push_back(key + ": every entry must be a string");
+      }
+    }
+  } else if (!node.IsNull()) {
+    problems->push_back(key + ": must be a list of strings");
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> loadAnalysisConfig(const std::string& path, IdentificationConfig* config,
+                                            InputTopics* topics, std::vector<std::string>* keys_given) {
+  std::vector<std::string> problems;
+  if (!std::ifstream(path).good()) return {"cannot read config file '" + path + "'"};
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    return {"config file '" + path + "' is not valid YAML: " + e.what()};
+  }
+  if (root.IsNull()) return {};
+  if (!root.IsMap()) return {"config file '" + path + "' must be a mapping of keys to values"};
+  const auto numeric = numericConfigKeys();
+  for (const auto& entry : root) {
+    const std::string key = entry.first.as<std::string>();
+    const YAML::Node& value = entry.second;
+    keys_given->push_back(key);
+    if (std::find(numeric.begin(), numeric.end(), key) != numeric.end()) {
+      double number = 0.0;
+      try {
+        number = value.as<double>();
+      } catch (const YAML::Exception&) {
+        problems.push_back(key + ": '" + (value.IsScalar() ? value.as<std::string>() : "?") +
+                           "' is not a number");
+        continue;
+      }
+      setNumericConfigValue(*config, key, number);
+    } else if (key == "effects") {
+      config->effects = stringList(value, key, &problems);
+    } else if (key == "custom_effects") {
+      config->custom_effects = stringList(value, key, &problems);
+    } else if (key == "regression_form") {
+      if (!value.IsScalar() || !parseRegressionForm(value.as<std::string>(), &config->regression_form)) {
+        problems.push_back("regression_form: allowed integral, derivative");
+      }
+    } else if (key == "topics") {
+      if (!value.IsMap()) {
+        problems.push_back("topics: must be a mapping {pressure: ..., position: ..., valve: ...}");
+        continue;
+      }
+      for (const auto& topic : value) {
+        const std::string name = topic.first.as<std::string>();
+        std::string* target = name == "pressure"   ? &topics->pressure
+                              : name == "position" ? &topics->position
+                              : name == "valve"    ? &topics->valve
+                                                   : nullptr;
+        if (!target || !topic.second.IsScalar()) {
+          problems.push_back("topics: '" + name + "' is not one of pressure, position, valve");
+          continue;
+        }
+        *target = topic.second.as<std::string>();
+      }
+    } else {
+      std::string allowed;
+      for (const auto& k : numeric) allowed += k + ", ";
+      problems.push_back("unknown key '" + key + "' (allowed: " + allowed +
+                         "effects, custom_effects, regression_form, topics)");
+    }
+  }
+  return problems;
+}
+
+}  // namespace die_cushion_ident

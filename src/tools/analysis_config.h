@@ -1,0 +1,23 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/identification_config.h"
+
+namespace die_cushion_ident {
+
+/// The three input topics read from a bag.
+struct InputTopics {
+  std::string pressure = "/die_cushion/pressure";
+  std::string position = "/die_cushion/position";
+  std::string valve = "/die_cushion/valve";
+};
+
+/// Reads an analyze_bag config file (YAML: the configuration keys of README, `effects`, `custom_effects`,
+/// `regression_form`, `topics: {pressure, position, valve}`). Returns every problem found ("key: ..."),
+/// including unknown keys (a typo must not silently fall back to a default).
+std::vector<std::string> loadAnalysisConfig(const std::string& path, IdentificationConfig* config,
+                                            InputTopics* topics, std::vector<std::string>* keys_given);
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,280 @@
+#include "analysis_writer.h"
+
+#include <rosbag/bag.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+#include "die_cushion_ident/FrequencyResponse.h"
+#include "die_cushion_ident/ModelComparison.h"
+#include "die_cushion_ident/ParameterEstimate.h"
+#include "die_cushion_ident/ValveModel.h"
+
+namespace die_cushion_ident {
+
+namespace {
+
+constexpr int kComparisonDecimation = 5;  // 2 ms grid -> 100 Hz in analysis.bag and CSV
+
+ros::Time stampOf(double t) { return ros::Time(std::max(t, 1e-6)); }
+
+void emitRegions(YAML::Emitter& out, const char* key, const std::vector<RegionError>& regions, bool phase) {
+  out << YAML::Key << key << YAML::Value << YAML::BeginSeq;
+  for (const auto& r : regions) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << (phase ? "phase" : "range") << YAML::Value << r.label;
+    out << YAML::Key << "samples" << YAML::Value << r.samples;
+    out << YAML::Key << "simulation_error_rms" << YAML::Value << r.rms;
+    out << YAML::Key << "mean_residual" << YAML::Value << r.mean_residual;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+}
+
+void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& parameters) {
+  out << YAML::BeginSeq;
+  for (const auto& p : parameters) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name << YAML::Key
+        << "value" << YAML::Value << p.value << YAML::Key << "std" << YAML::Value << p.std << YAML::Key
+        << "unit" << YAML::Value << p.unit << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+}
+
+void writeSummary(const std::string& path, const AnalysisInput& input, const IdentificationConfig& config,
+                  const OfflineResult& r) {
+  static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
+  YAML::Emitter out;
+  out.SetDoublePrecision(6);
+  out << YAML::BeginMap;
+
+  out << YAML::Key << "input" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "bag" << YAML::Value << input.bag;
+  out << YAML::Key << "duration" << YAML::Value << input.duration;
+  out << YAML::Key << "messages" << YAML::Value << r.messages;
+  out << YAML::Key << "topics" << YAML::Value << YAML::BeginMap;
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    const StreamHealth& h = r.health[s];
+    out << YAML::Key << kNames[s] << YAML::Value << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "topic" << YAML::Value << input.topics[s];
+    out << YAML::Key << "messages" << YAML::Value << input.messages[s];
+    out << YAML::Key << "rate" << YAML::Value << h.rate();
+    out << YAML::Key << "rejected" << YAML::Value << (h.non_finite + h.duplicates + h.out_of_order);
+    out << YAML::Key << "gaps" << YAML::Value << h.gaps;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+  out << YAML::Key << "time_base_restarts" << YAML::Value << r.restarts;
+  out << YAML::EndMap;
+
+  out << YAML::Key << "model" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "effects" << YAML::Value << YAML::Flow << r.effects;
+  out << YAML::Key << "regression_form" << YAML::Value << regressionFormName(config.regression_form);
+  out << YAML::Key << "parameters" << YAML::Value;
+  emitParameters(out, r.model.parameters);
+  out << YAML::EndMap;
+
+  out << YAML::Key << "fit" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "samples" << YAML::Value << r.assessment.samples;
+  out << YAML::Key << "cycles" << YAML::Value << r.strokes.cycles;
+  out << YAML::Key << "equation_error_rms" << YAML::Value << r.model.equation_error_rms;
+  out << YAML::Key << "simulation_error_rms" << YAML::Value << r.assessment.simulation_error_rms;
+  emitRegions(out, "by_phase", r.assessment.by_phase, true);
+  emitRegions(out, "by_pressure", r.assessment.by_pressure, false);
+  emitRegions(out, "by_velocity", r.assessment.by_velocity, false);
+  emitRegions(out, "by_opening", r.assessment.by_opening, false);
+  out << YAML::Key << "worst_regions" << YAML::Value << r.assessment.worst_regions;
+  out << YAML::EndMap;
+
+  out << YAML::Key << "candidates" << YAML::Value << YAML::BeginSeq;
+  for (const auto& c : r.ranking.candidates) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "effect" << YAML::Value << c.effect;
+    out << YAML::Key << "error_reduction" << YAML::Value << c.error_reduction;
+    out << YAML::Key << "verdict" << YAML::Value << c.verdict;
+    out << YAML::Key << "explanation" << YAML::Value << c.explanation;
+    out << YAML::Key << "held_out_cycles" << YAML::Value << c.held_out_cycles;
+    out << YAML::Key << "t_statistic" << YAML::Value << c.t_statistic;
+    out << YAML::Key << "parameters" << YAML::Value;
+    emitParameters(out, c.parameters);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  out << YAML::Key << "adequacy" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "held_out_error_rms" << YAML::Value << r.ranking.base_error_rms;
+  out << YAML::Key << "best_error_rms" << YAML::Value << r.ranking.best_error_rms;
+  out << YAML::Key << "noise_rms" << YAML::Value << r.ranking.noise_rms;
+  out << YAML::Key << "residual_unexplained" << YAML::Value << r.ranking.residual_unexplained;
+  out << YAML::Key << "conclusion" << YAML::Value << r.ranking.conclusion;
+  out << YAML::EndMap;
+
+  if (r.valve) {
+    const ServoValveFit& fit = r.valve->fit;
+    out << YAML::Key << "valve" << YAML::Value << YAML::BeginMap;
+    if (fit.success) {
+      out << YAML::Key << "natural_frequency" << YAML::Value << fit.parameters.natural_frequency;
+      out << YAML::Key << "damping" << YAML::Value << fit.parameters.damping;
+      out << YAML::Key << "gain" << YAML::Value << fit.parameters.gain;
+      out << YAML::Key << "dead_time" << YAML::Value << fit.parameters.dead_time;
+      out << YAML::Key << "natural_frequency_std" << YAML::Value << fit.natural_frequency_std;
+      out << YAML::Key << "damping_std" << YAML::Value << fit.damping_std;
+      out << YAML::Key << "gain_std" << YAML::Value << fit.gain_std;
+      out << YAML::Key << "dead_time_std" << YAML::Value << fit.dead_time_std;
+      out << YAML::Key << "magnitude_residual_rms" << YAML::Value << fit.magnitude_residual_rms;
+      out << YAML::Key << "phase_residual_rms" << YAML::Value << fit.phase_residual_rms;
+    }
+    out << YAML::Key << "fit" << YAML::Value << fit.message;
+    out << YAML::Key << "points" << YAML::Value << YAML::BeginSeq;
+    for (const auto& p : r.valve->points) {
+      out << YAML::Flow << YAML::BeginMap;
+      out << YAML::Key << "frequency" << YAML::Value << p.frequency;
+      out << YAML::Key << "magnitude" << YAML::Value << p.magnitude;
+      out << YAML::Key << "phase" << YAML::Value << p.phase;
+      out << YAML::Key << "magnitude_std" << YAML::Value << p.magnitude_std;
+      out << YAML::Key << "phase_std" << YAML::Value << p.phase_std;
+      out << YAML::Key << "harmonic_distortion" << YAML::Value << p.harmonic_distortion;
+      out << YAML::Key << "distorted" << YAML::Value << p.distorted;
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
+  out << YAML::Key << "warnings" << YAML::Value << r.warnings;
+  out << YAML::EndMap;
+
+  std::ofstream file(path);
+  file << "# die_cushion_ident analyze_bag summary (SI units; see README.md)\n" << out.c_str() << "\n";
+  if (!file) throw std::runtime_error("cannot write " + path);
+}
+
+void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const std::vector<GridSample>& grid,
+                    const HydraulicModel& model) {
+  rosbag::Bag bag;
+  bag.open(directory + "/analysis.bag", rosbag::bagmode::Write);
+  std::ofstream estimates_csv(directory + "/estimates.csv");
+  estimates_csv << "t";
+  for (int i = 0; i < model.parameterCount(); ++i) {
+    estimates_csv << "," << model.parameterInfos()[i].name << "," << model.parameterInfos()[i].name << "_std";
+  }
+  estimates_csv << ",equation_error_rms\n";
+  estimates_csv.precision(10);
+  for (const auto& e : r.estimates) {
+    ParameterEstimate msg;
+    msg.header.stamp = stampOf(e.t);
+    msg.effects = r.effects;
+    for (int i = 0; i < model.parameterCount(); ++i) {
+      msg.names.push_back(model.parameterInfos()[i].name);
+      msg.units.push_back(model.parameterInfos()[i].unit);
+    }
+    msg.values = e.values;
+    msg.standard_deviations = e.stds;
+    msg.bulk_modulus = e.values[0];
+    msg.bulk_modulus_std = e.stds[0];
+    msg.valve_flow_gain = e.values[1];
+    msg.valve_flow_gain_std = e.stds[1];
+    msg.dead_volume = e.values[2];
+    msg.dead_volume_std = e.stds[2];
+    msg.equation_error_rms = e.equation_error_rms;
+    bag.write("/die_cushion_ident/estimate", msg.header.stamp, msg);
+    estimates_csv << e.t;
+    for (std::size_t i = 0; i < e.values.size(); ++i) estimates_csv << "," << e.values[i] << "," << e.stds[i];
+    estimates_csv << "," << e.equation_error_rms << "\n";
+  }
+
+  std::ofstream comparison_csv(directory + "/model_comparison.csv");
+  comparison_csv << "t,measured_pressure,modelled_pressure,residual,position,velocity,spool_position,phase\n";
+  comparison_csv.precision(10);
+  const auto& modelled = r.assessment.modelled;
+  for (std::size_t i = 0; i < grid.size() && i < modelled.size(); i += kComparisonDecimation) {
+    const GridSample& g = grid[i];
+    ModelComparison msg;
+    msg.header.stamp = stampOf(g.t);
+    msg.measured_pressure = g.p;
+    msg.modelled_pressure = modelled[i];
+    msg.residual = g.p - modelled[i];
+    msg.simulation_error_rms = r.assessment.simulation_error_rms;
+    msg.equation_error_rms = r.model.equation_error_rms;
+    msg.position = g.x;
+    msg.velocity = g.v;
+    msg.spool_position = g.y;
+    msg.phase = static_cast<std::uint8_t>(r.strokes.phase[i]);
+    msg.phase_name = strokePhaseName(r.strokes.phase[i]);
+    bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
+    comparison_csv << g.t << "," << g.p << "," << modelled[i] << "," << msg.residual << "," << g.x << ","
+                   << g.v << "," << g.y << "," << msg.phase_name << "\n";
+  }
+
+  if (r.valve) {
+    const double t = r.valve->segments.back().end;
+    FrequencyResponse response;
+    response.header.stamp = stampOf(t);
+    response.state = "finished";
+    std::ofstream csv(directory + "/frequency_response.csv");
+    csv << "frequency,re,im,magnitude,phase,magnitude_std,phase_std,harmonic_distortion,distorted\n";
+    for (const auto& p : r.valve->points) {
+      response.frequency.push_back(p.frequency);
+      response.re.push_back(p.re);
+      response.im.push_back(p.im);
+      response.magnitude.push_back(p.magnitude);
+      response.phase.push_back(p.phase);
+      response.magnitude_std.push_back(p.magnitude_std);
+      response.phase_std.push_back(p.phase_std);
+      response.convergence.push_back(p.convergence);
+      response.harmonic_distortion.push_back(p.harmonic_distortion);
+      response.unexplained_share.push_back(p.unexplained_share);
+      response.distorted.push_back(p.distorted);
+      csv << p.frequency << "," << p.re << "," << p.im << "," << p.magnitude << "," << p.phase << ","
+          << p.magnitude_std << "," << p.phase_std << "," << p.harmonic_distortion << "," << p.distorted
+          << "\n";
+    }
+    const ServoValveFit& fit = r.valve->fit;
+    if (fit.success && !r.valve->points.empty()) {
+      const double f_low = r.valve->points.front().frequency, f_high = r.valve->points.back().frequency;
+      double previous = 0.0;
+      for (int i = 0; i <= 100; ++i) {
+        const double f = f_low * std::pow(f_high / f_low, i / 100.0);
+        const auto g = servoValveResponse(fit.parameters, f);
+        const double phase = i == 0 ? std::arg(g) : previous + wrapAngle(std::arg(g) - previous);
+        previous = phase;
+        response.fit_frequency.push_back(f);
+        response.fit_magnitude.push_back(std::abs(g));
+        response.fit_phase.push_back(phase);
+      }
+    }
+    bag.write("/die_cushion_ident/frequency_response", response.header.stamp, response);
+    ValveModel valve;
+    valve.header.stamp = response.header.stamp;
+    valve.success = fit.success;
+    valve.message = fit.message;
+    valve.natural_frequency = fit.parameters.natural_frequency;
+    valve.natural_frequency_std = fit.natural_frequency_std;
+    valve.damping = fit.parameters.damping;
+    valve.damping_std = fit.damping_std;
+    valve.gain = fit.parameters.gain;
+    valve.gain_std = fit.gain_std;
+    valve.dead_time = fit.parameters.dead_time;
+    valve.dead_time_std = fit.dead_time_std;
+    valve.magnitude_residual_rms = fit.magnitude_residual_rms;
+    valve.phase_residual_rms = fit.phase_residual_rms;
+    valve.reduced_chi_square = fit.reduced_chi_square;
+    valve.points_used = fit.points_used;
+    valve.points_rejected = fit.points_rejected;
+    bag.write("/die_cushion_ident/valve_model", valve.header.stamp, valve);
+  }
+  bag.close();
+}
+
+}  // namespace
+
+void writeAnalysis(const std::string& directory, const AnalysisInput& input,
+                   const IdentificationConfig& config, const OfflineResult& result,
+                   const std::vector<GridSample>& grid) {
+  writeSummary(directory + "/summary.yaml", input, config, result);
+  const HydraulicModel model =
+      HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+  writeBagAndCsv(directory, result, grid, model);
+}
+
+}  // namespace die_cushion_ident

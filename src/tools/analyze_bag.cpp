@@ -1,0 +1,265 @@
+// analyze_bag: the offline analysis of a recorded bag (interface contract):
+//   rosrun die_cushion_ident analyze_bag BAG --out DIR [--config FILE.yaml] [--effects a,b]
+//                                        [--custom-effect NAME=EXPR]... [--quiet]
+// Exit codes: 0 done, 2 bad command line or configuration, 3 the bag cannot be used, 4 outputs not written.
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/FluidPressure.h>
+#include <sensor_msgs/JointState.h>
+#include <sys/stat.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <set>
+#include <sstream>
+
+#include "analysis_config.h"
+#include "analysis_writer.h"
+#include "die_cushion_ident/ValveSignal.h"
+#include "die_cushion_ident/core/offline_analysis.h"
+
+namespace die_cushion_ident {
+namespace {
+
+const char* kUsage =
+    "usage: analyze_bag BAG --out DIR [--config FILE.yaml] [--effects a,b] [--custom-effect NAME=EXPR]... "
+    "[--quiet]\n"
+    "  Identifies the die cushion's hydraulics and valve from a recorded bag and writes DIR/summary.yaml,\n"
+    "  DIR/analysis.bag and CSV files. Library effects: leakage, entrained_air, valve_overlap, "
+    "tank_pressure.\n"
+    "  The config file holds the geometry (piston_area, stroke_length, supply_pressure), any setting of\n"
+    "  README's configuration table, effects, custom_effects and topics: {pressure, position, valve}.\n";
+
+struct Options {
+  std::string bag, out, config;
+  std::vector<std::string> effects, custom_effects;
+  bool effects_given = false;
+  bool quiet = false;
+};
+
+[[noreturn]] void fail(int code, const std::string& message) {
+  std::cerr << "analyze_bag: " << message << "\n";
+  std::exit(code);
+}
+
+Options parseArguments(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) fail(2, a + " needs a value\n" + kUsage);
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (a == "--out") {
+      o.out = value();
+    } else if (a == "--config") {
+      o.config = value();
+    } else if (a == "--effects") {
+      o.effects_given = true;
+      std::stringstream list(value());
+      std::string item;
+      while (std::getline(list, item, ',')) {
+        if (!item.empty()) o.effects.push_back(item);
+      }
+    } else if (a == "--custom-effect") {
+      o.custom_effects.push_back(value());
+    } else if (a == "--quiet") {
+      o.quiet = true;
+    } else if (!a.empty() && a[0] == '-') {
+      fail(2, "unknown option " + a + "\n" + kUsage);
+    } else if (o.bag.empty()) {
+      o.bag = a;
+    } else {
+      fail(2, "more than one bag given ('" + o.bag + "', '" + a + "')\n" + kUsage);
+    }
+  }
+  if (o.bag.empty()) fail(2, std::string("no bag given\n") + kUsage);
+  if (o.out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
+  return o;
+}
+
+bool makeDirectory(const std::string& path) {
+  std::string partial;
+  std::stringstream parts(path);
+  std::string part;
+  if (!path.empty() && path[0] == '/') partial = "/";
+  while (std::getline(parts, part, '/')) {
+    if (part.empty()) continue;
+    partial += part + "/";
+    if (mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST) return false;
+  }
+  struct stat info;
+  return stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
+}
+
+}  // namespace
+}  // namespace die_cushion_ident
+
+int main(int argc, char** argv) {
+  using namespace die_cushion_ident;
+  const Options options = parseArguments(argc, argv);
+  const auto log = [&](const std::string& line) {
+    if (!options.quiet) std::cerr << "analyze_bag: " << line << "\n";
+  };
+
+  IdentificationConfig config;
+  InputTopics topics;
+  std::vector<std::string> keys;
+  if (!options.config.empty()) {
+    const auto problems = loadAnalysisConfig(options.config, &config, &topics, &keys);
+    if (!problems.empty()) {
+      std::string all;
+      for (const auto& p : problems) all += "\n  " + p;
+      fail(2, "invalid configuration in " + options.config + ":" + all);
+    }
+  }
+  if (options.effects_given) config.effects = options.effects;
+  for (const auto& c : options.custom_effects) config.custom_effects.push_back(c);
+  std::vector<std::string> warnings;
+  for (const char* key : {"piston_area", "stroke_length", "supply_pressure"}) {
+    if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
+      warnings.push_back(std::string("geometry key '") + key +
+                         "' not configured: the default of README's configuration table is used");
+    }
+  }
+  {
+    const auto problems = config.validate();
+    if (!problems.empty()) {
+      std::string all;
+      for (const auto& p : problems) all += "\n  " + p;
+      fail(2, "invalid configuration:" + all);
+    }
+  }
+
+  rosbag::Bag bag;
+  try {
+    bag.open(options.bag, rosbag::bagmode::Read);
+  } catch (const std::exception& e) {
+    fail(3, "cannot open bag '" + options.bag + "': " + e.what() +
+                " (a bag cut off while recording can be repaired with 'rosbag reindex')");
+  }
+
+  // The three inputs: present, and of the contract's types.
+  const std::string names[kInputStreamCount] = {topics.pressure, topics.position, topics.valve};
+  const std::string types[kInputStreamCount] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
+                                                "die_cushion_ident/ValveSignal"};
+  std::set<std::string> present;
+  std::string listing;
+  double begin = 0.0, end = 0.0;
+  std::uint64_t total = 0;
+  try {
+    rosbag::View everything(bag);
+    for (const auto* c : everything.getConnections()) {
+      listing += "\n  " + c->topic + " (" + c->datatype + ")";
+      for (int s = 0; s < kInputStreamCount; ++s) {
+        if (c->topic != names[s]) continue;
+        if (c->datatype != types[s]) {
+          fail(3, "topic " + names[s] + " has type " + c->datatype + ", expected " + types[s] +
+                      " (set the topics in the config file if the inputs are elsewhere)");
+        }
+        present.insert(names[s]);
+      }
+    }
+    if (everything.size() > 0) {
+      begin = everything.getBeginTime().toSec();
+      end = everything.getEndTime().toSec();
+    }
+  } catch (const std::exception& e) {
+    fail(3, "cannot read bag '" + options.bag + "': " + e.what());
+  }
+  if (present.empty()) {
+    fail(3, "none of the input topics " + names[0] + ", " + names[1] + ", " + names[2] + " is in '" +
+                options.bag + "'; it holds:" +
+                (listing.empty() ? std::string("\n  (nothing: the bag is empty)") : listing));
+  }
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    if (!present.count(names[s])) warnings.push_back("topic " + names[s] + " is not in the bag");
+  }
+
+  OfflineAnalysis analysis(config);
+  AnalysisInput input;
+  input.bag = options.bag;
+  input.duration = end - begin;
+  for (int s = 0; s < kInputStreamCount; ++s) input.topics[s] = names[s];
+  const auto started = std::chrono::steady_clock::now();
+  try {
+    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>(present.begin(), present.end())));
+    total = view.size();
+    log("reading " + std::to_string(total) + " messages (" +
+        std::to_string(static_cast<int>(input.duration)) + " s) from " + options.bag);
+    std::uint64_t done = 0;
+    auto last_report = std::chrono::steady_clock::now();
+    std::uint64_t mismatched = 0;
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& topic = m.getTopic();
+      if (topic == names[0]) {
+        if (const auto msg = m.instantiate<sensor_msgs::FluidPressure>()) {
+          analysis.push(InputStream::kPressure, {msg->header.stamp.toSec(), msg->fluid_pressure,
+                                                 std::numeric_limits<double>::quiet_NaN()});
+          ++input.messages[0];
+        } else {
+          ++mismatched;
+        }
+      } else if (topic == names[1]) {
+        if (const auto msg = m.instantiate<sensor_msgs::JointState>()) {
+          ++input.messages[1];
+          if (!msg->position.empty()) {
+            analysis.push(
+                InputStream::kPosition,
+                {msg->header.stamp.toSec(), msg->position[0],
+                 msg->velocity.empty() ? std::numeric_limits<double>::quiet_NaN() : msg->velocity[0]});
+          }
+        } else {
+          ++mismatched;
+        }
+      } else if (topic == names[2]) {
+        if (const auto msg = m.instantiate<ValveSignal>()) {
+          analysis.push(InputStream::kValve, {msg->header.stamp.toSec(), msg->voltage, msg->spool_position});
+          ++input.messages[2];
+        } else {
+          ++mismatched;
+        }
+      }
+      // Progress every 2 s on long bags.
+      if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
+        last_report = std::chrono::steady_clock::now();
+        log(std::to_string(100 * done / std::max<std::uint64_t>(total, 1)) + " % read (" +
+            std::to_string(done) + " messages)");
+      }
+    }
+    if (mismatched > 0) {
+      warnings.push_back(
+          std::to_string(mismatched) +
+          " messages had a different definition (md5sum) than this package's and were skipped");
+    }
+  } catch (const std::exception& e) {
+    warnings.push_back(std::string("the bag could not be read to the end (") + e.what() +
+                       "): the analysis covers what was read");
+    log(warnings.back());
+  }
+  bag.close();
+
+  OfflineResult result = analysis.finish([&](const std::string& step) { log(step); });
+  result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
+  if (!makeDirectory(options.out)) fail(4, "cannot create output directory '" + options.out + "'");
+  try {
+    writeAnalysis(options.out, input, config, result, analysis.grid());
+  } catch (const std::exception& e) {
+    fail(4, std::string("cannot write the results: ") + e.what());
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  for (const auto& w : result.warnings) log("warning: " + w);
+  log("simulation error " + std::to_string(result.assessment.simulation_error_rms * 1e-5) + " bar rms; " +
+      result.ranking.conclusion);
+  if (result.valve) log("valve: " + result.valve->fit.message);
+  char speed[128];
+  std::snprintf(speed, sizeof(speed), "%.1f s for %llu messages (%.2f M/s); results in %s", seconds,
+                static_cast<unsigned long long>(result.messages),
+                result.messages / std::max(seconds, 1e-9) / 1e6, options.out.c_str());
+  log(speed);
+  return 0;
+}

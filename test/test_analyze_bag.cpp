@@ -1,0 +1,212 @@
+// analyze_bag end to end: bags recorded from the simulator by simulate_bag, the contract's summary.yaml,
+// analysis.bag and CSV, the whole story (missing effect found, error falls when it is added), the valve
+// section without metadata, and a clear error for every kind of bad input.
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <std_msgs/Float64.h>
+#include <sys/wait.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <string>
+
+namespace {
+
+const std::string kTools = TOOL_DIR;
+const std::string kWork = "/tmp/die_cushion_ident_test_analyze_bag";
+
+struct CommandResult {
+  int status;
+  std::string output;
+};
+
+CommandResult run(const std::string& command) {
+  const std::string log = kWork + "/last_output.txt";
+  const int raw = std::system((command + " > " + log + " 2>&1").c_str());
+  std::ifstream in(log);
+  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1,
+          std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>())};
+}
+
+class AnalyzeBag : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    std::system(("rm -rf " + kWork + " && mkdir -p " + kWork).c_str());
+    // A worn seal, eight press cycles, then the valve sweep at rest.
+    ASSERT_EQ(run(kTools + "/simulate_bag " + kWork +
+                  "/leak.bag --cycles 8 --plant-effects leakage --sweep --seed 4 "
+                  "--set leakage_conductance=1.8e-11")
+                  .status,
+              0);
+  }
+
+  static YAML::Node analyze(const std::string& bag, const std::string& out, const std::string& extra = "") {
+    const CommandResult r = run(kTools + "/analyze_bag " + bag + " --out " + out + " " + extra);
+    EXPECT_EQ(r.status, 0) << r.output;
+    return YAML::LoadFile(out + "/summary.yaml");
+  }
+};
+
+double parameter(const YAML::Node& parameters, const std::string& name) {
+  for (const auto& p : parameters) {
+    if (p["name"].as<std::string>() == name) return p["value"].as<double>();
+  }
+  ADD_FAILURE() << "no parameter " << name;
+  return NAN;
+}
+
+TEST_F(AnalyzeBag, SummaryFollowsTheContractAndFindsTheMissingLeakage) {
+  const YAML::Node s = analyze(kWork + "/leak.bag", kWork + "/base");
+  // model
+  ASSERT_TRUE(s["model"]["effects"].IsSequence());
+  EXPECT_EQ(s["model"]["effects"].size(), 0u);
+  ASSERT_EQ(s["model"]["parameters"].size(), 3u);
+  for (const auto& p : s["model"]["parameters"]) {
+    for (const char* key : {"name", "value", "std", "unit"}) EXPECT_TRUE(p[key]) << key;
+  }
+  // fit
+  EXPECT_GT(s["fit"]["samples"].as<int>(), 10000);
+  EXPECT_GT(s["fit"]["equation_error_rms"].as<double>(), 0.0);
+  const double base_error = s["fit"]["simulation_error_rms"].as<double>();
+  std::set<std::string> phases;
+  for (const auto& p : s["fit"]["by_phase"]) {
+    phases.insert(p["phase"].as<std::string>());
+    EXPECT_GT(p["samples"].as<int>(), 0);
+    EXPECT_TRUE(p["simulation_error_rms"]);
+  }
+  EXPECT_EQ(phases, (std::set<std::string>{"rest", "impact", "drawing", "bottom_hold", "release", "return"}));
+  ASSERT_GE(s["fit"]["worst_regions"].size(), 1u);
+  EXPECT_NE(s["fit"]["worst_regions"][0].as<std::string>().find("bottom_hold"), std::string::npos);
+  // candidates: leakage first and missing, every other one named with a verdict and an explanation
+  ASSERT_EQ(s["candidates"].size(), 4u);
+  EXPECT_EQ(s["candidates"][0]["effect"].as<std::string>(), "leakage");
+  EXPECT_EQ(s["candidates"][0]["verdict"].as<std::string>(), "missing");
+  EXPECT_NEAR(parameter(s["candidates"][0]["parameters"], "leakage_conductance") / 1.8e-11, 1.0, 0.25);
+  for (const auto& c : s["candidates"]) {
+    const std::string verdict = c["verdict"].as<std::string>();
+    EXPECT_TRUE(verdict == "missing" || verdict == "not_needed" || verdict == "inconclusive") << verdict;
+    EXPECT_FALSE(c["explanation"].as<std::string>().empty());
+    EXPECT_TRUE(c["error_reduction"]);
+  }
+  // valve, found without metadata
+  ASSERT_TRUE(s["valve"]);
+  EXPECT_NEAR(s["valve"]["natural_frequency"].as<double>(), 80.0, 80.0 * 0.03);
+  EXPECT_NEAR(s["valve"]["damping"].as<double>(), 0.7, 0.07);
+  EXPECT_NEAR(s["valve"]["gain"].as<double>(), 0.1, 0.002);
+  EXPECT_NEAR(s["valve"]["dead_time"].as<double>(), 0.002, 0.3e-3);
+  ASSERT_EQ(s["valve"]["points"].size(), 16u);
+  for (const auto& p : s["valve"]["points"]) {
+    for (const char* key : {"frequency", "magnitude", "phase"}) EXPECT_TRUE(p[key]) << key;
+  }
+
+  // Adding the effect: the error falls at least twofold and the leak comes out in physical units.
+  const YAML::Node with = analyze(kWork + "/leak.bag", kWork + "/with_leakage", "--effects leakage");
+  EXPECT_EQ(with["model"]["effects"][0].as<std::string>(), "leakage");
+  EXPECT_LT(2.0 * with["fit"]["simulation_error_rms"].as<double>(), base_error);
+  EXPECT_NEAR(parameter(with["model"]["parameters"], "leakage_conductance") / 1.8e-11, 1.0, 0.1);
+  for (const auto& c : with["candidates"]) EXPECT_NE(c["verdict"].as<std::string>(), "missing");
+}
+
+TEST_F(AnalyzeBag, AnalysisBagAndCsvAreTimeAlignedWithTheInput) {
+  analyze(kWork + "/leak.bag", kWork + "/outputs");
+  rosbag::Bag input(kWork + "/leak.bag"), output(kWork + "/outputs/analysis.bag");
+  rosbag::View in_view(input), out_view(output);
+  std::set<std::string> topics;
+  for (const auto* c : out_view.getConnections()) topics.insert(c->topic);
+  for (const char* t : {"/die_cushion_ident/estimate", "/die_cushion_ident/model_comparison",
+                        "/die_cushion_ident/frequency_response", "/die_cushion_ident/valve_model"}) {
+    EXPECT_TRUE(topics.count(t)) << t;
+  }
+  EXPECT_GE(out_view.getBeginTime().toSec(), in_view.getBeginTime().toSec() - 1e-3);
+  EXPECT_LE(out_view.getEndTime().toSec(), in_view.getEndTime().toSec() + 1e-3);
+  for (const char* csv : {"estimates.csv", "model_comparison.csv", "frequency_response.csv"}) {
+    std::ifstream file(kWork + "/outputs/" + csv);
+    std::string header, first;
+    EXPECT_TRUE(std::getline(file, header) && std::getline(file, first)) << csv;
+  }
+}
+
+TEST_F(AnalyzeBag, ACustomEffectOutsideTheLibraryLowersTheErrorTwofold) {
+  ASSERT_EQ(run(kTools + "/simulate_bag " + kWork +
+                "/relief.bag --cycles 8 --seed 2 "
+                "--custom-effect 'relief=max(p-140e5,0)' --set relief_theta=3e-10")
+                .status,
+            0);
+  const YAML::Node base = analyze(kWork + "/relief.bag", kWork + "/relief_base");
+  EXPECT_TRUE(base["adequacy"]["residual_unexplained"].as<bool>());
+  EXPECT_NE(base["adequacy"]["conclusion"].as<std::string>().find("custom effect"), std::string::npos);
+  const YAML::Node custom =
+      analyze(kWork + "/relief.bag", kWork + "/relief_custom", "--custom-effect 'relief=max(p-140e5,0)'");
+  EXPECT_EQ(custom["model"]["effects"][0].as<std::string>(), "relief");
+  EXPECT_LT(2.0 * custom["fit"]["simulation_error_rms"].as<double>(),
+            base["fit"]["simulation_error_rms"].as<double>());
+  EXPECT_NEAR(parameter(custom["model"]["parameters"], "relief_theta") / 3e-10, 1.0, 0.25);
+}
+
+TEST_F(AnalyzeBag, BadInputGetsAClearErrorAndAnExitCode) {
+  const std::string tool = kTools + "/analyze_bag ";
+  // Command line.
+  CommandResult r = run(tool + kWork + "/leak.bag");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--out DIR is required"), std::string::npos) << r.output;
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --bogus");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("unknown option --bogus"), std::string::npos) << r.output;
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --effects leakage,bogus");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("bogus"), std::string::npos) << r.output;
+  // Configuration file.
+  {
+    std::ofstream config(kWork + "/bad.yaml");
+    config << "piston_area: -0.05\nforgetting_factor: lots\nfiltre_width: 31\n";
+  }
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --config " + kWork + "/bad.yaml");
+  EXPECT_EQ(r.status, 2);
+  for (const char* expected :
+       {"piston_area", "forgetting_factor: 'lots' is not a number", "unknown key 'filtre_width'"}) {
+    EXPECT_NE(r.output.find(expected), std::string::npos) << expected << "\n" << r.output;
+  }
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --config " + kWork + "/missing.yaml");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("cannot read config file"), std::string::npos) << r.output;
+  // The bag.
+  r = run(tool + kWork + "/no_such.bag --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 3);
+  EXPECT_NE(r.output.find("cannot open bag"), std::string::npos) << r.output;
+  {
+    std::ofstream text(kWork + "/not_a.bag");
+    text << "this is not a bag\n";
+  }
+  r = run(tool + kWork + "/not_a.bag --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 3);
+  EXPECT_NE(r.output.find("cannot open bag"), std::string::npos) << r.output;
+  {
+    std::ifstream whole(kWork + "/leak.bag", std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(whole)), std::istreambuf_iterator<char>());
+    std::ofstream cut(kWork + "/truncated.bag", std::ios::binary);
+    cut.write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  }
+  r = run(tool + kWork + "/truncated.bag --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 3);
+  EXPECT_NE(r.output.find("rosbag reindex"), std::string::npos) << r.output;
+  { rosbag::Bag empty(kWork + "/empty.bag", rosbag::bagmode::Write); }
+  r = run(tool + kWork + "/empty.bag --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 3);
+  EXPECT_NE(r.output.find("the bag is empty"), std::string::npos) << r.output;
+  {
+    rosbag::Bag wrong(kWork + "/wrong_type.bag", rosbag::bagmode::Write);
+    std_msgs::Float64 value;
+    value.data = 1e6;
+    wrong.write("/die_cushion/pressure", ros::Time(1.0), value);
+  }
+  r = run(tool + kWork + "/wrong_type.bag --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 3);
+  EXPECT_NE(r.output.find("has type std_msgs/Float64, expected sensor_msgs/FluidPressure"), std::string::npos)
+      << r.output;
+}
+
+}  // namespace
