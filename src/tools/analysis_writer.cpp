@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iomanip>
 #include <stdexcept>
 
 #include "die_cushion_ident/FrequencyResponse.h"
@@ -17,6 +18,19 @@ namespace die_cushion_ident {
 namespace {
 
 constexpr int kComparisonDecimation = 5;  // 2 ms grid -> 100 Hz in analysis.bag and CSV
+
+// Stamps are seconds since 1970: microseconds need 16 digits, more than the values' 10.
+struct Stamp {
+  double t;
+};
+std::ostream& operator<<(std::ostream& out, Stamp s) {
+  const auto flags = out.flags();
+  const auto precision = out.precision();
+  out << std::fixed << std::setprecision(6) << s.t;
+  out.flags(flags);
+  out.precision(precision);
+  return out;
+}
 
 ros::Time stampOf(double t) { return ros::Time(std::max(t, 1e-6)); }
 
@@ -178,7 +192,7 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
     msg.dead_volume_std = e.stds[2];
     msg.equation_error_rms = e.equation_error_rms;
     bag.write("/die_cushion_ident/estimate", msg.header.stamp, msg);
-    estimates_csv << e.t;
+    estimates_csv << Stamp{e.t};
     for (std::size_t i = 0; i < e.values.size(); ++i) estimates_csv << "," << e.values[i] << "," << e.stds[i];
     estimates_csv << "," << e.equation_error_rms << "\n";
   }
@@ -202,7 +216,7 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
     msg.phase = static_cast<std::uint8_t>(r.strokes.phase[i]);
     msg.phase_name = strokePhaseName(r.strokes.phase[i]);
     bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
-    comparison_csv << g.t << "," << g.p << "," << modelled[i] << "," << msg.residual << "," << g.x << ","
+    comparison_csv << Stamp{g.t} << "," << g.p << "," << modelled[i] << "," << msg.residual << "," << g.x << ","
                    << g.v << "," << g.y << "," << msg.phase_name << "\n";
   }
 
