@@ -49,7 +49,7 @@ TEST_P(HiddenEffect, IsTheTopCandidateMissingAndAddingItHalvesTheError) {
     SCOPED_TRACE(effect + ", seed " + std::to_string(seed));
     const Recording r = record(testing::randomPlant(seed, {effect}));
     const IdentificationConfig base = testing::configFor(r.plant, {});
-    const EffectRanking ranking = rankEffects(r.grid, r.strokes, base);
+    const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, base);
     ASSERT_FALSE(ranking.candidates.empty());
     const CandidateEffect& top = ranking.candidates.front();
     EXPECT_EQ(top.effect, effect) << ranking.conclusion;
@@ -72,10 +72,10 @@ TEST_P(HiddenEffect, IsTheTopCandidateMissingAndAddingItHalvesTheError) {
 INSTANTIATE_TEST_SUITE_P(Library, HiddenEffect,
                          ::testing::Values("leakage", "entrained_air", "valve_overlap", "tank_pressure"));
 
-TEST(EffectRanking, CleanDataGetNoMissingVerdict) {
+TEST(EffectRankingResult, CleanDataGetNoMissingVerdict) {
   for (std::uint64_t seed : {1, 2, 3, 4}) {
     const Recording r = record(testing::randomPlant(seed));
-    const EffectRanking ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
+    const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
     for (const auto& c : ranking.candidates) {
       EXPECT_NE(c.verdict, "missing") << "seed " << seed << ": " << c.effect << " " << c.explanation;
     }
@@ -84,7 +84,7 @@ TEST(EffectRanking, CleanDataGetNoMissingVerdict) {
   }
 }
 
-TEST(EffectRanking, AnEffectOutsideTheLibraryIsReportedAsUnexplainedAndACustomEffectFixesIt) {
+TEST(EffectRankingResult, AnEffectOutsideTheLibraryIsReportedAsUnexplainedAndACustomEffectFixesIt) {
   for (std::uint64_t seed : {1, 2}) {
     SimulatorConfig plant = testing::randomPlant(seed);
     // A pressure relief valve cracking at 140 bar, flow proportional to the excess pressure.
@@ -92,7 +92,7 @@ TEST(EffectRanking, AnEffectOutsideTheLibraryIsReportedAsUnexplainedAndACustomEf
     plant.parameters["relief_theta"] = 3e-10;
     const Recording r = record(plant);
     const IdentificationConfig base = testing::configFor(r.plant, {});
-    const EffectRanking ranking = rankEffects(r.grid, r.strokes, base);
+    const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, base);
     EXPECT_TRUE(ranking.residual_unexplained) << ranking.conclusion;
     EXPECT_NE(ranking.conclusion.find("not explained by the library"), std::string::npos)
         << ranking.conclusion;
@@ -104,9 +104,9 @@ TEST(EffectRanking, AnEffectOutsideTheLibraryIsReportedAsUnexplainedAndACustomEf
   }
 }
 
-TEST(EffectRanking, TooFewCyclesMakeEveryVerdictInconclusive) {
+TEST(EffectRankingResult, TooFewCyclesMakeEveryVerdictInconclusive) {
   const Recording r = record(testing::randomPlant(5, {"leakage"}), 2);
-  const EffectRanking ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
+  const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
   for (const auto& c : ranking.candidates) EXPECT_EQ(c.verdict, "inconclusive") << c.effect;
   EXPECT_NE(ranking.conclusion.find("Too few complete press cycles"), std::string::npos);
 }

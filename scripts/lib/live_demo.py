@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Part of scripts/demo: talks to the running simulator and identification nodes and prints what a user
 would look at: estimates against the simulator's truth, the diagnostics, a valve sweep's result."""
 import sys

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Part of scripts/demo: prints the essentials of an analyze_bag summary.yaml."""
 import sys
 

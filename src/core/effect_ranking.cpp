@@ -191,9 +191,9 @@ HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeS
   return identifier.estimate();
 }
 
-EffectRanking rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                          const IdentificationConfig& config, const EffectRankingOptions& options) {
-  EffectRanking ranking;
+EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                const IdentificationConfig& config, const EffectRankingOptions& options) {
+  EffectRankingResult ranking;
   ranking.noise_rms = noiseRms(grid);
   const int cycles = strokes.cycles;
   const int split = cycles / 2;

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "cushion_markers.h"
+#include "die_cushion_ident/EffectRanking.h"
 #include "die_cushion_ident/FrequencyResponse.h"
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
@@ -72,6 +73,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   valve_model_pub_ = pnh_.advertise<ValveModel>("valve_model", 1, true);
   command_pub_ = nh_.advertise<ValveSignal>("valve_command", 10);
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+  ranking_pub_ = pnh_.advertise<die_cushion_ident::EffectRanking>("effect_ranking", 1, true);
   pnh_.param("frame_id", frame_id_, frame_id_);
 
   // The estimates run on stamps, so pressure and position may arrive batched (Nagle: fewer wake-ups and
@@ -125,6 +127,9 @@ void IdentificationNode::rebuildPipeline() {
       [this](const HydraulicIdentifier& identifier) { onIdentificationStep(identifier); });
   free_run_ = std::make_unique<FreeRunPressure>(pipeline_->identifier().model(), config_.min_pressure);
   classifier_.reset();
+  window_.clear();
+  ranking_.reset();
+  last_ranking_time_ = -1e18;
   residual_square_mean_ = 0.0;
   residual_samples_ = 0;
   std::fill(std::begin(phase_square_error_), std::end(phase_square_error_), 0.0);
@@ -198,6 +203,14 @@ void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
 
 void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier) {
   last_grid_ = g;
+  window_.push_back(g);
+  const auto capacity =
+      static_cast<std::size_t>(settings_.effect_ranking_window / config_.resampler.sample_period);
+  while (window_.size() > capacity) window_.pop_front();
+  if (g.t - last_ranking_time_ >= settings_.effect_ranking_period || g.t < last_ranking_time_) {
+    last_ranking_time_ = g.t;
+    rankEffects();
+  }
   phase_ = classifier_.classify(g);
   modelled_pressure_ = free_run_->step(g, identifier.physicalParameters());
   if (std::isfinite(modelled_pressure_) && !free_run_->anchoredThisStep() && std::isfinite(g.p)) {
@@ -259,6 +272,27 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
     msg.phase_name = strokePhaseName(phase_);
     comparison_pub_.publish(msg);
   }
+}
+
+void IdentificationNode::rankEffects() {
+  const std::vector<GridSample> grid(window_.begin(), window_.end());
+  const StrokeSegmentation strokes = segmentStrokes(grid);
+  ranking_ = die_cushion_ident::rankEffects(grid, strokes, config_);
+  die_cushion_ident::EffectRanking msg;
+  msg.header.stamp = ros::Time(std::max(last_grid_.t, 0.0));
+  msg.cycles = strokes.cycles;
+  for (const auto& c : ranking_->candidates) {
+    msg.effects.push_back(c.effect);
+    msg.error_reduction.push_back(c.error_reduction);
+    msg.verdicts.push_back(c.verdict);
+    msg.explanations.push_back(c.explanation);
+  }
+  msg.held_out_error_rms = ranking_->base_error_rms;
+  msg.best_error_rms = ranking_->best_error_rms;
+  msg.noise_rms = ranking_->noise_rms;
+  msg.residual_unexplained = ranking_->residual_unexplained;
+  msg.conclusion = ranking_->conclusion;
+  ranking_pub_.publish(msg);
 }
 
 // ---- valve sweep ----
@@ -579,7 +613,19 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
         formatted("%.2f", std::sqrt(phase_square_error_[i]) * 1e-5));
     if (worst < 0 || phase_square_error_[i] > phase_square_error_[worst]) worst = i;
   }
-  const std::string where = std::string("worst in ") + strokePhaseName(static_cast<StrokePhase>(worst));
+  std::string where = std::string("worst in ") + strokePhaseName(static_cast<StrokePhase>(worst));
+  if (ranking_) {
+    status.add("effect ranking", ranking_->conclusion);
+    for (const auto& c : ranking_->candidates) {
+      status.add("candidate " + c.effect,
+                 c.verdict + ", " + formatted("%.0f %% less error", 100 * c.error_reduction));
+    }
+    if (!ranking_->candidates.empty() && ranking_->candidates.front().verdict == "missing") {
+      where += "; suspected missing effect: " + ranking_->candidates.front().effect;
+    } else if (ranking_->residual_unexplained) {
+      where += "; not explained by the effect library: consider a custom effect";
+    }
+  }
   if (residual_samples_ < 500) {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, "not enough data yet");
   } else if (rms > settings_.adequacy_error_error) {

@@ -7,8 +7,10 @@
 #include <sensor_msgs/JointState.h>
 
 #include <atomic>
+#include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "die_cushion_ident/AbortSweep.h"
@@ -16,6 +18,7 @@
 #include "die_cushion_ident/SetEffects.h"
 #include "die_cushion_ident/StartSweep.h"
 #include "die_cushion_ident/ValveSignal.h"
+#include "die_cushion_ident/core/effect_ranking.h"
 #include "die_cushion_ident/core/free_run_pressure.h"
 #include "die_cushion_ident/core/identification_pipeline.h"
 #include "die_cushion_ident/core/stroke_phase_classifier.h"
@@ -57,6 +60,8 @@ class IdentificationNode {
   bool setEffects(SetEffects::Request& request, SetEffects::Response& response);
   bool reset(Reset::Request& request, Reset::Response& response);
 
+  void rankEffects();
+
   void diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status, InputStream stream);
   void diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -94,6 +99,12 @@ class IdentificationNode {
   std::string last_rejection_[kInputStreamCount];
 
   ros::Subscriber pressure_sub_, position_sub_, valve_sub_;
+  // The last grid samples for the live effect ranking, and its latest result.
+  std::deque<GridSample> window_;
+  double last_ranking_time_ = -1e18;
+  std::optional<EffectRankingResult> ranking_;
+  ros::Publisher ranking_pub_;
+
   ros::Publisher estimate_pub_, comparison_pub_, response_pub_, valve_model_pub_, command_pub_, markers_pub_;
   std::string frame_id_ = "die_cushion";
   std::uint64_t steps_since_markers_ = 0;

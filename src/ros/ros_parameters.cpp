@@ -75,6 +75,8 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   }
   readNumber(pnh, "adequacy_warn_error", &problems, [&](double v) { settings->adequacy_warn_error = v; });
   readNumber(pnh, "adequacy_error_error", &problems, [&](double v) { settings->adequacy_error_error = v; });
+  readNumber(pnh, "effect_ranking_window", &problems, [&](double v) { settings->effect_ranking_window = v; });
+  readNumber(pnh, "effect_ranking_period", &problems, [&](double v) { settings->effect_ranking_period = v; });
   std::string form;
   if (pnh.getParam("regression_form", form) && !parseRegressionForm(form, &config->regression_form)) {
     problems.push_back("~regression_form = " + form + " is invalid: allowed integral, derivative");
@@ -93,6 +95,12 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   };
   positive("adequacy_warn_error", settings->adequacy_warn_error);
   positive("adequacy_error_error", settings->adequacy_error_error);
+  positive("effect_ranking_period", settings->effect_ranking_period);
+  if (!(settings->effect_ranking_window >= 5.0 && settings->effect_ranking_window <= 3600.0)) {
+    std::ostringstream s;
+    s << "~effect_ranking_window = " << settings->effect_ranking_window << " is invalid: allowed [5, 3600] s";
+    problems.push_back(s.str());
+  }
   return problems;
 }
 

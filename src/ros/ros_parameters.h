@@ -14,6 +14,8 @@ namespace die_cushion_ident {
 struct NodeSettings {
   double adequacy_warn_error = 3e5;    ///< [Pa] free-run pressure error RMS above which the model is doubtful
   double adequacy_error_error = 10e5;  ///< [Pa] ... and above which it is wrong
+  double effect_ranking_window = 30.0;  ///< [s] of recent data the live effect ranking looks at
+  double effect_ranking_period = 10.0;  ///< [s] between two rankings
 };
 
 /// Reads the private parameters (same names as the analyze_bag config keys) into `config`, `limits` and

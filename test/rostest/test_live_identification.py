@@ -8,7 +8,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
-from die_cushion_ident.msg import ModelComparison, ParameterEstimate
+from die_cushion_ident.msg import EffectRanking, ModelComparison, ParameterEstimate
 from die_cushion_ident.srv import SetEffects, StartSweep
 
 NS = "/die_cushion/ident/"
@@ -51,6 +51,7 @@ class LiveIdentification(unittest.TestCase):
         cls.estimate = Latest(NS + "estimate", ParameterEstimate)
         cls.comparison = Latest(NS + "model_comparison", ModelComparison)
         cls.truth = Latest("/die_cushion/simulator/truth", ParameterEstimate)
+        cls.ranking = Latest(NS + "effect_ranking", EffectRanking)
         cls.diagnostics = {}
         cls.lock = threading.Lock()
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
@@ -110,9 +111,15 @@ class LiveIdentification(unittest.TestCase):
         wait_for(lambda: list(self.estimate.get().effects) == [], 5, "the base model's estimates")
         rospy.sleep(12.0)
         without_leakage = self.comparison.get().simulation_error_rms
+        ranking = self.ranking.get()
+        self.assertEqual(ranking.effects[0], "leakage", ranking.conclusion)
+        self.assertEqual(ranking.verdicts[0], "missing", ranking.explanations[0])
+        self.assertNotIn("missing", ranking.verdicts[1:])
+        rospy.sleep(1.5)  # the next diagnostics include the ranking
         adequacy = self.diagnostic("model adequacy")
         self.assertIn(adequacy.level, (DiagnosticStatus.WARN, DiagnosticStatus.ERROR), adequacy.message)
         self.assertIn("misses the pressure", adequacy.message)
+        self.assertIn("suspected missing effect: leakage", adequacy.message)
         self.assertGreater(without_leakage, 2.0 * with_leakage,
                            "leaving out the plant's leakage must show in the error (%.2f vs %.2f bar)"
                            % (without_leakage * 1e-5, with_leakage * 1e-5))

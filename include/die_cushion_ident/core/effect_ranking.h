@@ -22,7 +22,7 @@ struct CandidateEffect {
   double t_statistic = 0.0;  ///< paired t of log(per-cycle error ratio) across held-out cycles (< 0: better)
 };
 
-struct EffectRanking {
+struct EffectRankingResult {
   double base_error_rms = 0.0;              ///< [Pa] held-out free-run error of the model as configured
   double best_error_rms = 0.0;              ///< [Pa] ... with the top candidate added when it is missing
   double noise_rms = 0.0;                   ///< [Pa] pressure sensor noise estimated from the data
@@ -49,8 +49,8 @@ struct EffectRankingOptions {
 /// run free on the other, both ways. Per held-out cycle the free-run error of the extended model is
 /// compared with the configured model's; cycles are the independent units of a paired one-sided t test on
 /// the log error ratio.
-EffectRanking rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                          const IdentificationConfig& config, const EffectRankingOptions& options = {});
+EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                const IdentificationConfig& config, const EffectRankingOptions& options = {});
 
 /// Fits `config`'s model to the grid samples of cycles [first_cycle, last_cycle] (all: -2, INT_MAX) without
 /// forgetting and returns the estimate.

@@ -32,7 +32,7 @@ struct OfflineResult {
   bool hydraulics = false;  ///< pressure and position were there to identify the hydraulics
   StrokeSegmentation strokes;
   ModelAssessment assessment;
-  EffectRanking ranking;
+  EffectRankingResult ranking;
   std::vector<EstimateSample> estimates;
   std::optional<RecordedSweep> valve;  ///< present when the recording holds a sine sweep
   std::array<StreamHealth, kInputStreamCount> health;
