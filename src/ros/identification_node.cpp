@@ -11,6 +11,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "message_conversions.h"
 
 namespace die_cushion_ident {
 
@@ -20,18 +21,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Weight of a new squared residual in the running means: about one press cycle (2.6 s) of 2 ms samples,
 // long enough to average over the phases, short enough to forget the estimator's start.
 constexpr double kResidualWeight = 1.0 / 1300.0;
-
-const char* streamName(InputStream stream) {
-  switch (stream) {
-    case InputStream::kPressure:
-      return "pressure";
-    case InputStream::kPosition:
-      return "position";
-    case InputStream::kValve:
-      return "valve";
-  }
-  return "unknown";
-}
 
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
@@ -91,7 +80,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   updater_.setHardwareID("die_cushion");
   for (InputStream stream : {InputStream::kPressure, InputStream::kPosition, InputStream::kValve}) {
     updater_.add(
-        std::string("input ") + streamName(stream),
+        std::string("input ") + inputStreamName(stream),
         [this, stream](diagnostic_updater::DiagnosticStatusWrapper& s) { diagnoseInput(s, stream); });
   }
   updater_.add("estimator", this, &IdentificationNode::diagnoseEstimator);
@@ -187,14 +176,14 @@ void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
   const auto result = pipeline_->push(stream, sample);
   if (result == UniformResampler::PushResult::kRestarted) {
     ROS_WARN("die_cushion_ident: %s stamp jumped (bag restarted?): identification restarted",
-             streamName(stream));
+             inputStreamName(stream));
     free_run_->resync();
     classifier_.reset();
   } else if (result != UniformResampler::PushResult::kAccepted) {
     const int s = static_cast<int>(stream);
     ++rejected_[s];
     last_rejection_[s] = pushResultText(result);
-    ROS_WARN_THROTTLE(5.0, "die_cushion_ident: %s message rejected: %s", streamName(stream),
+    ROS_WARN_THROTTLE(5.0, "die_cushion_ident: %s message rejected: %s", inputStreamName(stream),
                       pushResultText(result));
   }
 }
@@ -330,69 +319,22 @@ void IdentificationNode::publishSweepCommand(double voltage) {
 }
 
 void IdentificationNode::publishFrequencyResponse() {
-  FrequencyResponse msg;
-  msg.header.stamp = ros::Time::now();
-  msg.state = sweepStateName(sweep_.state());
-  for (const auto& p : sweep_.points()) {
-    msg.frequency.push_back(p.frequency);
-    msg.re.push_back(p.re);
-    msg.im.push_back(p.im);
-    msg.magnitude.push_back(p.magnitude);
-    msg.phase.push_back(p.phase);
-    msg.magnitude_std.push_back(p.magnitude_std);
-    msg.phase_std.push_back(p.phase_std);
-    msg.convergence.push_back(p.convergence);
-    msg.harmonic_distortion.push_back(p.harmonic_distortion);
-    msg.unexplained_share.push_back(p.unexplained_share);
-    msg.distorted.push_back(p.distorted);
-  }
-  const ServoValveFit& fit = sweep_.fit();
-  if (fit.success && !sweep_.points().empty()) {
-    // The fitted curve on a fine log grid across the measured band, phase unwrapped like the points.
-    const double f_low = sweep_.points().front().frequency, f_high = sweep_.points().back().frequency;
-    double previous = 0.0;
-    for (int i = 0; i <= 100; ++i) {
-      const double f = f_low * std::pow(f_high / f_low, i / 100.0);
-      const auto g = servoValveResponse(fit.parameters, f);
-      double phase = std::arg(g);
-      if (i > 0) phase = previous + wrapAngle(phase - previous);
-      previous = phase;
-      msg.fit_frequency.push_back(f);
-      msg.fit_magnitude.push_back(std::abs(g));
-      msg.fit_phase.push_back(phase);
-    }
-  }
   published_points_ = sweep_.points().size();
-  response_pub_.publish(msg);
+  response_pub_.publish(toFrequencyResponseMsg(sweep_.points(), sweep_.fit(), sweepStateName(sweep_.state()),
+                                               ros::Time::now()));
 }
 
 void IdentificationNode::finishSweep() {
   if (last_sweep_outcome_ == "reported") return;
   last_sweep_outcome_ = "reported";
   publishFrequencyResponse();
-  ValveModel msg;
-  msg.header.stamp = ros::Time::now();
   const ServoValveFit& fit = sweep_.fit();
+  ValveModel msg = toValveModelMsg(fit, ros::Time::now());
   if (sweep_.state() == ValveSweep::State::kAborted) {
     msg.success = false;
     msg.message = "sweep aborted: " + sweep_.abortReason();
     ROS_WARN("die_cushion_ident: %s", msg.message.c_str());
   } else {
-    msg.success = fit.success;
-    msg.message = fit.message;
-    msg.natural_frequency = fit.parameters.natural_frequency;
-    msg.natural_frequency_std = fit.natural_frequency_std;
-    msg.damping = fit.parameters.damping;
-    msg.damping_std = fit.damping_std;
-    msg.gain = fit.parameters.gain;
-    msg.gain_std = fit.gain_std;
-    msg.dead_time = fit.parameters.dead_time;
-    msg.dead_time_std = fit.dead_time_std;
-    msg.magnitude_residual_rms = fit.magnitude_residual_rms;
-    msg.phase_residual_rms = fit.phase_residual_rms;
-    msg.reduced_chi_square = fit.reduced_chi_square;
-    msg.points_used = fit.points_used;
-    msg.points_rejected = fit.points_rejected;
     if (fit.success) {
       last_valve_fit_ = fit;
       config_.valve = fit.parameters;  // an unmeasured spool is predicted with the identified valve
@@ -489,7 +431,7 @@ void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapp
   const StreamHealth& h = pipeline_->resampler().health(stream);
   const double age = ros::Time::now().toSec() - h.last_stamp;
   const int s = static_cast<int>(stream);
-  status.add("topic", nh_.resolveName(streamName(stream)));
+  status.add("topic", nh_.resolveName(inputStreamName(stream)));
   status.add("rate [Hz]", formatted("%.1f", h.rate()));
   status.add("received", h.received);
   status.add("rejected", rejected_[s]);

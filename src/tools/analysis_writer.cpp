@@ -12,6 +12,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "message_conversions.h"
 
 namespace die_cushion_ident {
 
@@ -216,66 +217,22 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
     msg.phase = static_cast<std::uint8_t>(r.strokes.phase[i]);
     msg.phase_name = strokePhaseName(r.strokes.phase[i]);
     bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
-    comparison_csv << Stamp{g.t} << "," << g.p << "," << modelled[i] << "," << msg.residual << "," << g.x << ","
-                   << g.v << "," << g.y << "," << msg.phase_name << "\n";
+    comparison_csv << Stamp{g.t} << "," << g.p << "," << modelled[i] << "," << msg.residual << "," << g.x
+                   << "," << g.v << "," << g.y << "," << msg.phase_name << "\n";
   }
 
   if (r.valve) {
-    const double t = r.valve->segments.back().end;
-    FrequencyResponse response;
-    response.header.stamp = stampOf(t);
-    response.state = "finished";
+    const ros::Time stamp = stampOf(r.valve->segments.back().end);
+    bag.write("/die_cushion_ident/frequency_response", stamp,
+              toFrequencyResponseMsg(r.valve->points, r.valve->fit, "finished", stamp));
+    bag.write("/die_cushion_ident/valve_model", stamp, toValveModelMsg(r.valve->fit, stamp));
     std::ofstream csv(directory + "/frequency_response.csv");
     csv << "frequency,re,im,magnitude,phase,magnitude_std,phase_std,harmonic_distortion,distorted\n";
     for (const auto& p : r.valve->points) {
-      response.frequency.push_back(p.frequency);
-      response.re.push_back(p.re);
-      response.im.push_back(p.im);
-      response.magnitude.push_back(p.magnitude);
-      response.phase.push_back(p.phase);
-      response.magnitude_std.push_back(p.magnitude_std);
-      response.phase_std.push_back(p.phase_std);
-      response.convergence.push_back(p.convergence);
-      response.harmonic_distortion.push_back(p.harmonic_distortion);
-      response.unexplained_share.push_back(p.unexplained_share);
-      response.distorted.push_back(p.distorted);
       csv << p.frequency << "," << p.re << "," << p.im << "," << p.magnitude << "," << p.phase << ","
           << p.magnitude_std << "," << p.phase_std << "," << p.harmonic_distortion << "," << p.distorted
           << "\n";
     }
-    const ServoValveFit& fit = r.valve->fit;
-    if (fit.success && !r.valve->points.empty()) {
-      const double f_low = r.valve->points.front().frequency, f_high = r.valve->points.back().frequency;
-      double previous = 0.0;
-      for (int i = 0; i <= 100; ++i) {
-        const double f = f_low * std::pow(f_high / f_low, i / 100.0);
-        const auto g = servoValveResponse(fit.parameters, f);
-        const double phase = i == 0 ? std::arg(g) : previous + wrapAngle(std::arg(g) - previous);
-        previous = phase;
-        response.fit_frequency.push_back(f);
-        response.fit_magnitude.push_back(std::abs(g));
-        response.fit_phase.push_back(phase);
-      }
-    }
-    bag.write("/die_cushion_ident/frequency_response", response.header.stamp, response);
-    ValveModel valve;
-    valve.header.stamp = response.header.stamp;
-    valve.success = fit.success;
-    valve.message = fit.message;
-    valve.natural_frequency = fit.parameters.natural_frequency;
-    valve.natural_frequency_std = fit.natural_frequency_std;
-    valve.damping = fit.parameters.damping;
-    valve.damping_std = fit.damping_std;
-    valve.gain = fit.parameters.gain;
-    valve.gain_std = fit.gain_std;
-    valve.dead_time = fit.parameters.dead_time;
-    valve.dead_time_std = fit.dead_time_std;
-    valve.magnitude_residual_rms = fit.magnitude_residual_rms;
-    valve.phase_residual_rms = fit.phase_residual_rms;
-    valve.reduced_chi_square = fit.reduced_chi_square;
-    valve.points_used = fit.points_used;
-    valve.points_rejected = fit.points_rejected;
-    bag.write("/die_cushion_ident/valve_model", valve.header.stamp, valve);
   }
   bag.close();
 }

@@ -16,6 +16,7 @@
 
 #include "analysis_config.h"
 #include "analysis_writer.h"
+#include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/offline_analysis.h"
 
@@ -60,11 +61,7 @@ Options parseArguments(int argc, char** argv) {
       o.config = value();
     } else if (a == "--effects") {
       o.effects_given = true;
-      std::stringstream list(value());
-      std::string item;
-      while (std::getline(list, item, ',')) {
-        if (!item.empty()) o.effects.push_back(item);
-      }
+      o.effects = splitList(value());
     } else if (a == "--custom-effect") {
       o.custom_effects.push_back(value());
     } else if (a == "--quiet") {

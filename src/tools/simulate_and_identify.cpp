@@ -8,21 +8,13 @@
 #include <string>
 #include <vector>
 
+#include "command_line.h"
 #include "die_cushion_ident/core/die_cushion_simulator.h"
 #include "die_cushion_ident/core/identification_pipeline.h"
 
 using namespace die_cushion_ident;
 
 namespace {
-std::vector<std::string> splitList(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
 
 void usage() {
   std::cerr << "usage: simulate_and_identify [--cycles N] [--plant-effects a,b] [--effects a,b]\n"

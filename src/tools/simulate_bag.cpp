@@ -9,6 +9,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/die_cushion_simulator.h"
 #include "die_cushion_ident/core/valve_sweep.h"
@@ -22,16 +23,6 @@ const char* kUsage =
     "                    [--set NAME=VALUE]... [--seed S] [--sweep] [--no-spool] [--epoch SECONDS]\n"
     "  Press cycles of the simulated die cushion (2.62 s each) on /die_cushion/{pressure,position,valve};\n"
     "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest.\n";
-
-std::vector<std::string> splitList(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
 
 class BagRecorder {
  public:

@@ -1,0 +1,62 @@
+#include "message_conversions.h"
+
+#include <cmath>
+
+namespace die_cushion_ident {
+
+FrequencyResponse toFrequencyResponseMsg(const std::vector<FrequencyResponsePoint>& points,
+                                         const ServoValveFit& fit, const std::string& state,
+                                         const ros::Time& stamp) {
+  FrequencyResponse msg;
+  msg.header.stamp = stamp;
+  msg.state = state;
+  for (const auto& p : points) {
+    msg.frequency.push_back(p.frequency);
+    msg.re.push_back(p.re);
+    msg.im.push_back(p.im);
+    msg.magnitude.push_back(p.magnitude);
+    msg.phase.push_back(p.phase);
+    msg.magnitude_std.push_back(p.magnitude_std);
+    msg.phase_std.push_back(p.phase_std);
+    msg.convergence.push_back(p.convergence);
+    msg.harmonic_distortion.push_back(p.harmonic_distortion);
+    msg.unexplained_share.push_back(p.unexplained_share);
+    msg.distorted.push_back(p.distorted);
+  }
+  if (!fit.success || points.empty()) return msg;
+  const double f_low = points.front().frequency, f_high = points.back().frequency;
+  double previous = 0.0;
+  for (int i = 0; i <= 100; ++i) {
+    const double f = f_low * std::pow(f_high / f_low, i / 100.0);
+    const auto g = servoValveResponse(fit.parameters, f);
+    const double phase = i == 0 ? std::arg(g) : previous + wrapAngle(std::arg(g) - previous);
+    previous = phase;
+    msg.fit_frequency.push_back(f);
+    msg.fit_magnitude.push_back(std::abs(g));
+    msg.fit_phase.push_back(phase);
+  }
+  return msg;
+}
+
+ValveModel toValveModelMsg(const ServoValveFit& fit, const ros::Time& stamp) {
+  ValveModel msg;
+  msg.header.stamp = stamp;
+  msg.success = fit.success;
+  msg.message = fit.message;
+  msg.natural_frequency = fit.parameters.natural_frequency;
+  msg.natural_frequency_std = fit.natural_frequency_std;
+  msg.damping = fit.parameters.damping;
+  msg.damping_std = fit.damping_std;
+  msg.gain = fit.parameters.gain;
+  msg.gain_std = fit.gain_std;
+  msg.dead_time = fit.parameters.dead_time;
+  msg.dead_time_std = fit.dead_time_std;
+  msg.magnitude_residual_rms = fit.magnitude_residual_rms;
+  msg.phase_residual_rms = fit.phase_residual_rms;
+  msg.reduced_chi_square = fit.reduced_chi_square;
+  msg.points_used = fit.points_used;
+  msg.points_rejected = fit.points_rejected;
+  return msg;
+}
+
+}  // namespace die_cushion_ident
