@@ -98,8 +98,11 @@ class LiveSweep(unittest.TestCase):
         self.assertIn("command range", outside.message)
 
     def test_3_invalid_parameters_are_refused_at_start_up(self):
+        # The workspace's own binary (rosrun would also see copies in other build directories of the checkout).
+        node = subprocess.run(["catkin_find", "--first-only", "--libexec", "die_cushion_ident", "identification_node"],
+                              capture_output=True, text=True, check=True).stdout.strip()
         result = subprocess.run(
-            ["rosrun", "die_cushion_ident", "identification_node", "__name:=bad_ident", "_forgetting_factor:=2.0",
+            [node, "__name:=bad_ident", "_forgetting_factor:=2.0",
              "_moving_average_width:=30", "_effects:=[leakage, no_such_effect]", "_sweep_max_amplitude:=-1"],
             capture_output=True, text=True, timeout=60)
         self.assertEqual(result.returncode, 2, result.stdout + result.stderr)
