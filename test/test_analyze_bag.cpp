@@ -190,9 +190,18 @@ TEST_F(AnalyzeBag, BadInputGetsAClearErrorAndAnExitCode) {
     std::ofstream cut(kWork + "/truncated.bag", std::ios::binary);
     cut.write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
   }
-  r = run(tool + kWork + "/truncated.bag --out " + kWork + "/x");
-  EXPECT_EQ(r.status, 3);
-  EXPECT_NE(r.output.find("rosbag reindex"), std::string::npos) << r.output;
+  // A bag cut off while recording: a clear error, and a partial result for what could be recovered.
+  r = run(tool + kWork + "/truncated.bag --out " + kWork + "/truncated");
+  EXPECT_EQ(r.status, 5) << r.output;
+  EXPECT_NE(r.output.find("not indexed (cut off while recording"), std::string::npos) << r.output;
+  {
+    const YAML::Node partial = YAML::LoadFile(kWork + "/truncated/summary.yaml");
+    EXPECT_GT(partial["fit"]["samples"].as<int>(), 1000);
+    bool said = false;
+    for (const auto& w : partial["warnings"])
+      said = said || w.as<std::string>().find("cut off") != std::string::npos;
+    EXPECT_TRUE(said) << "a warning says that the bag was cut off";
+  }
   { rosbag::Bag empty(kWork + "/empty.bag", rosbag::bagmode::Write); }
   r = run(tool + kWork + "/empty.bag --out " + kWork + "/x");
   EXPECT_EQ(r.status, 3);

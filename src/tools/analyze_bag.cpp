@@ -1,7 +1,8 @@
 // analyze_bag: the offline analysis of a recorded bag (interface contract):
 //   rosrun die_cushion_ident analyze_bag BAG --out DIR [--config FILE.yaml] [--effects a,b]
 //                                        [--custom-effect NAME=EXPR]... [--quiet]
-// Exit codes: 0 done, 2 bad command line or configuration, 3 the bag cannot be used, 4 outputs not written.
+// Exit codes: 0 done, 2 bad command line or configuration, 3 the bag cannot be used, 4 outputs not written,
+// 5 partial result (the bag was cut off while recording; what could be recovered was analysed).
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/FluidPressure.h>
@@ -10,6 +11,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -79,6 +81,31 @@ Options parseArguments(int argc, char** argv) {
   return o;
 }
 
+// A file that begins like a ROS bag (version 2.0), however damaged its end.
+bool looksLikeBag(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  char magic[13] = {0};
+  file.read(magic, 12);
+  return file && std::string(magic) == "#ROSBAG V2.0";
+}
+
+// A reindexed copy of `bag` in a new temporary directory (returned in `directory`); "" if that failed.
+std::string repairedCopy(const std::string& bag, std::string* directory) {
+  char pattern[] = "/tmp/analyze_bag_repair_XXXXXX";
+  if (!mkdtemp(pattern)) return "";
+  *directory = pattern;
+  const auto quoted = [](const std::string& s) {
+    std::string out = "'";
+    for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+  };
+  const std::string command =
+      "rosbag reindex --quiet --output-dir " + quoted(*directory) + " " + quoted(bag) + " >/dev/null 2>&1";
+  if (std::system(command.c_str()) != 0) return "";
+  const auto slash = bag.find_last_of('/');
+  return *directory + "/" + (slash == std::string::npos ? bag : bag.substr(slash + 1));
+}
+
 bool makeDirectory(const std::string& path) {
   std::string partial;
   std::stringstream parts(path);
@@ -133,11 +160,31 @@ int main(int argc, char** argv) {
   }
 
   rosbag::Bag bag;
+  std::string repaired_directory;
+  bool partial = false;
   try {
     bag.open(options.bag, rosbag::bagmode::Read);
   } catch (const std::exception& e) {
-    fail(3, "cannot open bag '" + options.bag + "': " + e.what() +
-                " (a bag cut off while recording can be repaired with 'rosbag reindex')");
+    if (!looksLikeBag(options.bag)) fail(3, "cannot open bag '" + options.bag + "': " + e.what());
+    // A bag whose index is missing or lies beyond its end was cut off while recording or copying: recover
+    // what was written, in a temporary copy.
+    std::cerr << "analyze_bag: error: '" << options.bag
+              << "' is not indexed (cut off while recording: " << e.what()
+              << "); recovering what it holds with 'rosbag reindex'\n";
+    const std::string repaired = repairedCopy(options.bag, &repaired_directory);
+    try {
+      if (repaired.empty()) throw std::runtime_error("rosbag reindex failed");
+      try {
+        bag.close();  // the failed open leaves the file attached
+      } catch (const std::exception&) {
+      }
+      bag.open(repaired, rosbag::bagmode::Read);
+    } catch (const std::exception& e) {
+      fail(3, "cannot open bag '" + options.bag + "': not indexed and not repairable (" + e.what() + ")");
+    }
+    partial = true;
+    warnings.push_back(
+        "the bag was cut off while recording: the analysis covers the part 'rosbag reindex' recovered");
   }
 
   // The three inputs: present, and of the contract's types.
@@ -239,6 +286,7 @@ int main(int argc, char** argv) {
     log(warnings.back());
   }
   bag.close();
+  if (!repaired_directory.empty()) std::system(("rm -rf '" + repaired_directory + "'").c_str());
 
   OfflineResult result = analysis.finish([&](const std::string& step) { log(step); });
   result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
@@ -258,5 +306,9 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(result.messages),
                 result.messages / std::max(seconds, 1e-9) / 1e6, options.out.c_str());
   log(speed);
+  if (partial) {
+    std::cerr << "analyze_bag: partial result: the bag was cut off; see the warnings in summary.yaml\n";
+    return 5;
+  }
   return 0;
 }

@@ -1,0 +1,242 @@
+#include "core_fuzz.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "die_cushion_ident/core/effect_library.h"
+#include "die_cushion_ident/core/identification_pipeline.h"
+#include "die_cushion_ident/core/offline_analysis.h"
+#include "die_cushion_ident/core/recorded_sweep.h"
+#include "die_cushion_ident/core/servo_valve_fit.h"
+#include "die_cushion_ident/core/valve_sweep.h"
+
+namespace die_cushion_ident {
+namespace fuzz {
+
+namespace {
+
+class Bytes {
+ public:
+  Bytes(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
+  bool empty() const { return position_ >= size_; }
+  std::uint8_t byte() { return position_ < size_ ? data_[position_++] : 0; }
+  /// A value in [lo, hi], or (1 time in 16) something hostile: NaN, +-Inf, 0, negative, huge.
+  double number(double lo, double hi) {
+    const std::uint8_t selector = byte();
+    const double unit = (byte() * 256 + byte()) / 65535.0;
+    switch (selector % 32) {
+      case 0:
+        return std::numeric_limits<double>::quiet_NaN();
+      case 1:
+        return std::numeric_limits<double>::infinity();
+      case 2:
+        return -std::numeric_limits<double>::infinity();
+      case 3:
+        return 0.0;
+      case 4:
+        return -hi;
+      case 5:
+        return hi * 1e12;
+      default:
+        return lo + unit * (hi - lo);
+    }
+  }
+
+ private:
+  const std::uint8_t* data_;
+  std::size_t size_;
+  std::size_t position_ = 0;
+};
+
+bool finite(const HydraulicEstimate& e) {
+  for (const auto& p : e.parameters) {
+    if (!std::isfinite(p.value) || !std::isfinite(p.std)) return false;
+  }
+  return std::isfinite(e.equation_error_rms);
+}
+
+IdentificationConfig configFrom(Bytes& in) {
+  IdentificationConfig c;
+  const std::uint8_t effects = in.byte();
+  const auto& library = libraryEffectNames();
+  for (std::size_t i = 0; i < library.size(); ++i) {
+    if (effects & (1u << i)) c.effects.push_back(library[i]);
+  }
+  static const char* kCustom[] = {
+      "relief=max(p-140e5,0)", "bypass=p*y", "broken=p*(", "dp_term=dp", "=p", "x=", "nan=sqrt(-1)"};
+  if (effects & 0x80) c.custom_effects.push_back(kCustom[in.byte() % 7]);
+  const std::uint8_t tweaks = in.byte();
+  if (tweaks & 1) c.forgetting_factor = in.number(0.9, 1.0);
+  // Through the same door as ROS parameters and YAML, so that NaN and fractions are tried too.
+  if (tweaks & 2) setNumericConfigValue(c, "moving_average_width", in.number(1, 61));
+  if (tweaks & 4) setNumericConfigValue(c, "derivative_width", in.number(3, 61));
+  if (tweaks & 8) c.geometry.piston_area = in.number(0.001, 1.0);
+  if (tweaks & 16) c.min_pressure = in.number(-1e5, 50e5);
+  if (tweaks & 32) c.regression_form = RegressionForm::kDerivative;
+  if (tweaks & 64) c.resampler.max_gap = in.number(0.003, 0.1);
+  if (tweaks & 128) c.initial_covariance = in.number(1.0, 1e9);
+  return c;
+}
+
+// A plausible press signal with hostile disturbances, in stamp order with deliberate exceptions.
+void feedMessages(Bytes& in, const IdentificationConfig& config,
+                  const std::function<void(const std::string&)>& fail) {
+  std::unique_ptr<IdentificationPipeline> pipeline;
+  std::unique_ptr<OfflineAnalysis> offline;
+  try {
+    pipeline = std::make_unique<IdentificationPipeline>(config);
+    offline = std::make_unique<OfflineAnalysis>(config);
+  } catch (const std::invalid_argument& e) {
+    if (std::strlen(e.what()) == 0) fail("a refused configuration without a reason");
+    if (config.validate().empty()) fail(std::string("a valid configuration refused: ") + e.what());
+    return;
+  }
+  if (!config.validate().empty()) fail("an invalid configuration accepted");
+  double t[kInputStreamCount] = {100.0, 100.0003, 100.0006};
+  int silent = in.byte() % 4;  // 3: none silent
+  for (int step = 0; step < 6000 && !in.empty(); ++step) {
+    const std::uint8_t op = in.byte();
+    const int s = op % 3;
+    if (s == silent && (op & 0x40)) continue;
+    const int burst = (op & 0x80) ? 1 + in.byte() % 16 : 1;
+    for (int b = 0; b < burst; ++b) {
+      double stamp = t[s] + 0.001;
+      switch ((op >> 2) % 8) {
+        case 1:
+          stamp = 0.0;
+          break;
+        case 2:
+          stamp = t[s];
+          break;  // duplicate
+        case 3:
+          stamp = t[s] - in.number(0.0, 5.0);
+          break;  // back
+        case 4:
+          stamp = t[s] + in.number(0.0, 5.0);
+          break;  // gap or jump
+        case 5:
+          stamp = std::numeric_limits<double>::quiet_NaN();
+          break;
+        default:
+          break;
+      }
+      const double phase = std::fmod(std::isfinite(stamp) ? stamp : 0.0, 2.6);
+      StreamSample sample;
+      sample.stamp = stamp;
+      switch (s) {
+        case 0:
+          sample.first = in.number(0.0, 200e5) * 0.1 + 100e5 * std::sin(phase);
+          sample.second = NAN;
+          break;
+        case 1:
+          sample.first = 0.1 + 0.1 * std::sin(phase);
+          sample.second = (op & 0x20) ? NAN : in.number(-0.3, 0.3);
+          break;
+        default:
+          sample.first = in.number(-10.0, 10.0);
+          sample.second = (op & 0x20) ? NAN : in.number(-1.0, 1.0);
+          break;
+      }
+      pipeline->push(static_cast<InputStream>(s), sample);
+      offline->push(static_cast<InputStream>(s), sample);
+      if (std::isfinite(stamp) && stamp > t[s]) t[s] = stamp;
+    }
+  }
+  pipeline->flush();
+  if (!finite(pipeline->identifier().estimate())) fail("a non-finite online estimate");
+  const OfflineResult result = offline->finish();
+  if (result.hydraulics && result.model.updates > 0 && !finite(result.model))
+    fail("a non-finite offline fit");
+  if (!std::isfinite(result.assessment.simulation_error_rms)) fail("a non-finite simulation error");
+  for (const auto& c : result.ranking.candidates) {
+    if (c.verdict != "missing" && c.verdict != "not_needed" && c.verdict != "inconclusive")
+      fail("bad verdict");
+    if (c.explanation.empty()) fail("a verdict without an explanation");
+  }
+}
+
+void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fail) {
+  SweepLimits limits;
+  const std::uint8_t tweaks = in.byte();
+  if (tweaks & 1) limits.max_amplitude = in.number(0.1, 5.0);
+  if (tweaks & 2) limits.min_voltage = in.number(-10.0, 0.0);
+  if (tweaks & 4) limits.max_voltage = in.number(0.0, 10.0);
+  if (tweaks & 8) limits.command_period = in.number(1e-4, 0.01);
+  if (tweaks & 16) limits.max_pressure = in.number(1e5, 200e5);
+  if (tweaks & 32) limits.signal_timeout = in.number(0.001, 1.0);
+  std::unique_ptr<ValveSweep> sweep;
+  try {
+    sweep = std::make_unique<ValveSweep>(limits);
+  } catch (const std::invalid_argument& e) {
+    if (limits.validate().empty()) fail(std::string("valid sweep limits refused: ") + e.what());
+    return;
+  }
+  SweepRequest request;
+  if (in.byte() & 1)
+    request.frequencies = {in.number(1.0, 200.0), in.number(1.0, 200.0)};
+  else
+    request.frequencies = {20.0, 40.0};
+  request.amplitude = in.number(0.0, 2.0);
+  request.offset = in.number(-2.0, 2.0);
+  request.settle_periods = in.number(0.0, 5.0);
+  request.integration_periods = in.number(1.0, 5.0);
+  request.min_integration_time = in.number(0.0, 0.2);
+  PlantCondition plant;
+  plant.pressure = in.number(0.0, 100e5);
+  plant.velocity = in.number(-0.01, 0.01);
+  plant.pressure_age = in.number(0.0, 0.1);
+  plant.spool_age = in.number(0.0, 0.1);
+  double now = 10.0;
+  const std::string refusal = sweep->start(request, now, plant);
+  if (!refusal.empty() && sweep->running()) fail("refused but running");
+  std::vector<ValveSample> echo;
+  for (int i = 0; i < 3000 && !in.empty(); ++i) {
+    const std::uint8_t op = in.byte();
+    now += (op & 1) ? in.number(0.0, 0.01) : limits.command_period;
+    if (op & 2) plant.pressure = in.number(0.0, 150e5);
+    if (op & 4) plant.spool_age = in.number(0.0, 0.2);
+    sweep->supervise(now, plant);
+    const auto u = sweep->command(now);
+    if (u && !(std::isfinite(*u) && *u >= limits.min_voltage && *u <= limits.max_voltage)) {
+      fail("a valve command outside the configured bounds: " + std::to_string(*u));
+    }
+    const double spool = (op & 8) ? in.number(-1.0, 1.0) : 0.05 * std::sin(now * 100.0);
+    sweep->addValveSample(now, u.value_or(0.0), spool);
+    if (op & 16) sweep->abort("fuzz");
+    if (sweep->state() == ValveSweep::State::kAborted && sweep->abortReason().empty())
+      fail("abort without reason");
+    echo.push_back({now, u.value_or(0.0), spool});
+  }
+  const RecordedSweep recorded = analyzeRecordedSweep(echo);
+  if (recorded.fit.success && !std::isfinite(recorded.fit.parameters.natural_frequency))
+    fail("non-finite valve fit");
+  std::vector<FrequencyResponsePoint> points;
+  for (int i = 0; i < 8 && !in.empty(); ++i) {
+    FrequencyResponsePoint p;
+    p.frequency = in.number(1.0, 300.0);
+    p.magnitude = in.number(0.0, 0.2);
+    p.phase = in.number(-10.0, 0.0);
+    p.magnitude_std = in.number(0.0, 0.01);
+    p.phase_std = in.number(0.0, 0.1);
+    points.push_back(p);
+  }
+  const ServoValveFit fit = fitServoValve(points);
+  if (!fit.success && fit.message.empty()) fail("a failed valve fit without a reason");
+}
+
+}  // namespace
+
+void runCase(const std::uint8_t* data, std::size_t size,
+             const std::function<void(const std::string&)>& fail) {
+  Bytes in(data, size);
+  const IdentificationConfig config = configFrom(in);
+  const bool sweep_first = in.byte() & 1;
+  if (sweep_first) sweepAndValve(in, fail);
+  feedMessages(in, config, fail);
+  if (!sweep_first) sweepAndValve(in, fail);
+}
+
+}  // namespace fuzz
+}  // namespace die_cushion_ident
