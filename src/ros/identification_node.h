@@ -113,7 +113,8 @@ class IdentificationNode {
   ros::Timer diagnostic_timer_;
 };
 
-/// Takes the node's callbacks in batches every 5 ms (every 0.2 ms while a sweep commands the valve) until
+/// Takes the node's callbacks in batches every 5 ms (at most 20 ms of ROS time when a simulation runs faster than
+/// real time; every 0.2 ms while a sweep commands the valve) until
 /// `stop` or shutdown, instead of waking up for each of the 3000 messages per second: the estimates run on
 /// stamps, so batching costs nothing but saves most of roscpp's per-message thread hand-overs.
 void spinBatched(ros::CallbackQueue& queue, const IdentificationNode& node, const std::atomic<bool>& stop);

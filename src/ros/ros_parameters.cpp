@@ -22,6 +22,8 @@ void readNumber(const ros::NodeHandle& pnh, const std::string& key, std::vector<
   }
 }
 
+}  // namespace
+
 void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector<std::string>* out,
                  std::vector<std::string>* problems) {
   XmlRpc::XmlRpcValue value;
@@ -62,7 +64,6 @@ void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector
   }
 }
 
-}  // namespace
 
 std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
                                         SweepLimits* limits, NodeSettings* settings) {

@@ -18,6 +18,11 @@ struct NodeSettings {
   double effect_ranking_period = 10.0;  ///< [s] between two rankings
 };
 
+/// A list of strings: a YAML list, or one string "a,b" / "[a, b]" as given on a command line (commas
+/// inside parentheses stay: a custom effect may hold max(p, 0)). Problems are appended to `problems`.
+void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector<std::string>* out,
+                 std::vector<std::string>* problems);
+
 /// Reads the private parameters (same names as the analyze_bag config keys) into `config`, `limits` and
 /// `settings`. Returns every problem as "~name = value is invalid: allowed ..."; empty when all are usable.
 std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,

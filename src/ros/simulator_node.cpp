@@ -19,25 +19,15 @@
 #include "die_cushion_ident/ValveModel.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/die_cushion_simulator.h"
+#include "ros_parameters.h"
 
 namespace die_cushion_ident {
 namespace {
 
 std::vector<std::string> stringList(const ros::NodeHandle& pnh, const std::string& key) {
-  std::vector<std::string> out;
-  XmlRpc::XmlRpcValue value;
-  if (!pnh.getParam(key, value)) return out;
-  if (value.getType() == XmlRpc::XmlRpcValue::TypeString) {
-    std::stringstream stream(static_cast<std::string>(value));
-    std::string item;
-    while (std::getline(stream, item, ',')) {
-      if (!item.empty()) out.push_back(item);
-    }
-  } else if (value.getType() == XmlRpc::XmlRpcValue::TypeArray) {
-    for (int i = 0; i < value.size(); ++i) out.push_back(static_cast<std::string>(value[i]));
-  } else {
-    throw std::invalid_argument("~" + key + " must be a list of strings");
-  }
+  std::vector<std::string> out, problems;
+  readStrings(pnh, key, &out, &problems);
+  if (!problems.empty()) throw std::invalid_argument(problems.front());
   return out;
 }
 
@@ -83,6 +73,7 @@ SimulatorConfig loadSimulatorConfig(const ros::NodeHandle& pnh) {
   pnh.param("publish_velocity", c.sensors.publish_velocity, true);
   pnh.param("at_rest", at_rest, false);
   c.cycle.rest_time = at_rest ? 1e9 : number(pnh, "rest_time", c.cycle.rest_time);
+  c.integration_step = number(pnh, "integration_step", c.integration_step);
   int seed = 1;
   pnh.param("seed", seed, 1);
   c.seed = static_cast<std::uint64_t>(seed);
