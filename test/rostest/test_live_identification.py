@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Live identification on ROS: estimates converge to the simulator's truth, diagnostics report the right
 levels, set_effects changes the model, unsafe and invalid sweep requests are refused."""
 import threading

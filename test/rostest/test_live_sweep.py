@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """A sweep started through the service identifies the simulated valve; the valve command follows the sweep
 and returns to the offset; an aborted sweep says so; a second request while running is refused."""
 import subprocess
