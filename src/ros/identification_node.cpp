@@ -21,6 +21,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Weight of a new squared residual in the running means: about one press cycle (2.6 s) of 2 ms samples,
 // long enough to average over the phases, short enough to forget the estimator's start.
 constexpr double kResidualWeight = 1.0 / 1300.0;
+// All inputs silent this long [s of ROS time] is an error; shorter silences are scheduling, not a fault
+// (a 25 ms stall of a simulation at 40x real time is 1 s of stamps).
+constexpr double kSilenceLimit = 1.0;
 
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
@@ -425,6 +428,16 @@ bool IdentificationNode::reset(Reset::Request&, Reset::Response& res) {
 
 // ---- diagnostics ----
 
+double IdentificationNode::allInputsSilentFor() const {
+  double youngest = std::numeric_limits<double>::infinity();
+  const double now = ros::Time::now().toSec();
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    const StreamHealth& h = pipeline_->resampler().health(static_cast<InputStream>(s));
+    if (h.received > 0) youngest = std::min(youngest, now - h.last_stamp);
+  }
+  return youngest;
+}
+
 void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status,
                                        InputStream stream) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -445,9 +458,13 @@ void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapp
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no messages received");
   } else if (h.accepted == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "every message rejected: " + last_rejection_[s]);
-  } else if (age > config_.resampler.stale_timeout) {
+  } else if (h.stale) {
+    // Silent while the other topics run (judged on stamps, so a processing delay is not staleness).
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                   "stale: no message for " + formatted("%.2f s", age));
+                   "stale: silent for " + formatted("%.2f s", age) + " while the other inputs run");
+  } else if (allInputsSilentFor() > kSilenceLimit) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                   "no input for " + formatted("%.2f s", age) + " (all three topics silent)");
   } else if (stream == InputStream::kValve && !(ros::Time::now().toSec() - spool_stamp_ < 1.0)) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "spool position not measured (NaN): predicted with the valve model");

@@ -62,6 +62,8 @@ class IdentificationNode {
 
   void rankEffects();
 
+  /// ROS time since the newest message of any input [s].
+  double allInputsSilentFor() const;
   void diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status, InputStream stream);
   void diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status);
