@@ -74,9 +74,16 @@ class HostileInputs(unittest.TestCase):
                 self.send(t, p=50e5 + 1e5 * math.sin(t), x=0.01, v=0.0)
             if i % 100 == 0:
                 rospy.sleep(0.01)
-        rospy.sleep(2.5)
-        with self.lock:
-            statuses = dict(self.statuses)
+        # The rejections show in the next diagnostics (1 Hz); on a loaded machine that may take a few.
+        deadline = rospy.Time.now() + rospy.Duration(10.0)
+        while rospy.Time.now() < deadline:
+            rospy.sleep(0.5)
+            with self.lock:
+                statuses = dict(self.statuses)
+            names = ["input pressure", "input position", "input valve"]
+            if all(n in statuses and int({kv.key: kv.value for kv in statuses[n].values}["rejected"]) > 0
+                   for n in names):
+                break
         for name in ["input pressure", "input position", "input valve"]:
             self.assertIn(name, statuses)
             status = statuses[name]
