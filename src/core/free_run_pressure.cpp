@@ -52,7 +52,9 @@ double FreeRunPressure::step(const GridSample& s, const ParameterVector& theta) 
     const double k4 = rate(previous_, s, w1, p_ + h * k3, theta);
     p_ = std::max(p_ + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4), kFloor);
   }
-  if (!std::isfinite(p_)) {  // a diverging parameter set: start again from the measurement
+  // A parameter set far from the truth (an estimator that has just started) can make the model diverge;
+  // beyond twice the supply pressure it says nothing any more: start again from the measurement.
+  if (!std::isfinite(p_) || p_ > 2.0 * model_.geometry().supply_pressure) {
     p_ = s.p;
     anchored_this_step_ = true;
   }

@@ -24,6 +24,8 @@ constexpr double kResidualWeight = 1.0 / 1300.0;
 // All inputs silent this long [s of ROS time] is an error; shorter silences are scheduling, not a fault
 // (a 25 ms stall of a simulation at 40x real time is 1 s of stamps).
 constexpr double kSilenceLimit = 1.0;
+// RLS updates (10 ms each, only while excited) before the model comparison counts: about one stroke.
+constexpr std::uint64_t kUpdatesBeforeComparison = 100;
 
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
@@ -205,7 +207,10 @@ void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdenti
   }
   phase_ = classifier_.classify(g);
   modelled_pressure_ = free_run_->step(g, identifier.physicalParameters());
-  if (std::isfinite(modelled_pressure_) && !free_run_->anchoredThisStep() && std::isfinite(g.p)) {
+  // The comparison counts once the estimator has seen some excitation; before, the model is its start value.
+  const bool estimator_started = identifier.updates() >= kUpdatesBeforeComparison;
+  if (estimator_started && std::isfinite(modelled_pressure_) && !free_run_->anchoredThisStep() &&
+      std::isfinite(g.p)) {
     const double square = (g.p - modelled_pressure_) * (g.p - modelled_pressure_);
     const double w = std::max(kResidualWeight, 1.0 / static_cast<double>(++residual_samples_));
     residual_square_mean_ += w * (square - residual_square_mean_);

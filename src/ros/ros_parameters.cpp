@@ -64,7 +64,6 @@ void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector
   }
 }
 
-
 std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
                                         SweepLimits* limits, NodeSettings* settings) {
   std::vector<std::string> problems;

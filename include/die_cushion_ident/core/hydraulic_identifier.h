@@ -55,6 +55,8 @@ class HydraulicIdentifier {
   /// The newest regression row (valid or not) and whether the last step updated the estimator.
   const RegressionRow& lastRow() const { return row_; }
   bool lastStepUpdated() const { return last_step_updated_; }
+  /// RLS updates since the last (re)start (cheap; estimate() also reports it).
+  std::uint64_t updates() const { return rls_->updates(); }
   /// Predicted dp/dt [Pa/s] of the current model for a row (for comparison with row.pressure_rate).
   double capacitanceAt(const RegressionRow& row) const;
 
