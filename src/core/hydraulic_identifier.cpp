@@ -20,8 +20,7 @@ IdentificationConfig checked(const IdentificationConfig& config) {
 
 HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
     : config_(checked(config)),
-      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)),
-      spool_predictor_(config.valve) {
+      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)) {
   const int n = model_.parameterCount();
   ParameterVector initial = model_.nominalParameters();
   for (const auto& [name, value] : config_.initial_parameters) {
@@ -57,10 +56,6 @@ HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
 void HydraulicIdentifier::reset() {
   rls_->reset();
   regressor_->clear();
-  spool_predictor_.reset();
-  previous_command_ = 0.0;
-  last_measured_spool_ = 0.0;
-  predictor_following_ = false;
   rows_ = steps_ = skipped_invalid_ = skipped_unexcited_ = 0;
   error_mean_square_ = error_weight_ = 0.0;
   last_step_updated_ = false;
@@ -96,23 +91,9 @@ double HydraulicIdentifier::capacitanceAt(const RegressionRow& row) const {
   return model_.capacitance(s, linearisation_point_);
 }
 
-bool HydraulicIdentifier::push(const GridSample& sample) {
-  GridSample s = sample;
-  if (sample.discontinuity) spool_predictor_.reset();
-  if (std::isfinite(s.y)) {
-    // Measured: no need to integrate the valve model; it restarts from the last measurement if the
-    // measurement stops.
-    last_measured_spool_ = s.y;
-    predictor_following_ = false;
-  } else {
-    if (!predictor_following_) spool_predictor_.reset(last_measured_spool_);
-    predictor_following_ = true;
-    // The command between two grid samples is best known as their mean; holding the newest one would run
-    // the predicted spool half a sample ahead of the real one.
-    const double u_now = std::isfinite(s.u) ? s.u : previous_command_;
-    s.y = spool_predictor_.advance(config_.resampler.sample_period, 0.5 * (u_now + previous_command_));
-  }
-  if (std::isfinite(s.u)) previous_command_ = s.u;
+bool HydraulicIdentifier::push(const GridSample& s) {
+  // An unmeasured spool arrives already predicted (IdentificationPipeline, per valve message); a NaN spool
+  // here means the valve stream itself is missing, and the sample is unusable.
   const bool usable = s.complete && std::isfinite(s.p) && std::isfinite(s.x) && std::isfinite(s.u) &&
                       std::isfinite(s.y) && s.p >= config_.min_pressure &&
                       std::abs(s.y) <= config_.max_spool_opening;

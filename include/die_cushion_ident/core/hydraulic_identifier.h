@@ -8,7 +8,6 @@
 #include "die_cushion_ident/core/hydraulic_model.h"
 #include "die_cushion_ident/core/identification_config.h"
 #include "die_cushion_ident/core/recursive_least_squares.h"
-#include "die_cushion_ident/core/servo_valve.h"
 #include "die_cushion_ident/core/volume_balance_regressor.h"
 
 namespace die_cushion_ident {
@@ -68,13 +67,9 @@ class HydraulicIdentifier {
   HydraulicModel model_;
   std::unique_ptr<VolumeBalanceRegressor> regressor_;
   std::unique_ptr<RecursiveLeastSquares> rls_;
-  ServoValve spool_predictor_;
-  double previous_command_ = 0.0;  // [V]
-  double last_measured_spool_ = 0.0;
-  bool predictor_following_ = false;  // the valve model is integrating (spool not measured)
-  ParameterVector scale_;             // coefficient = normalised parameter * scale
-  double flow_scale_;                 // [m^3/s] divides both sides of the equation
-  double overlap_factor_;             // rows sharing data per identification step
+  ParameterVector scale_;  // coefficient = normalised parameter * scale
+  double flow_scale_;      // [m^3/s] divides both sides of the equation
+  double overlap_factor_;  // rows sharing data per identification step
   ParameterVector linearisation_point_;
   RegressionRow row_;
   std::uint64_t rows_ = 0;
