@@ -220,32 +220,28 @@ void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdenti
 }
 
 void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identifier) {
+  // rviz needs no more than 10 Hz.
+  const bool markers =
+      markers_pub_.getNumSubscribers() > 0 && ++steps_since_markers_ * config_.identification_period >= 0.1;
+  const bool estimate = estimate_pub_.getNumSubscribers() > 0;
+  const bool comparison = comparison_pub_.getNumSubscribers() > 0;
+  if (!markers && !estimate && !comparison) return;  // the estimate costs allocations: only when wanted
   const HydraulicEstimate e = identifier.estimate();
   const ros::Time stamp(std::max(e.t, 0.0));
-  if (estimate_pub_.getNumSubscribers() > 0) {
-    ParameterEstimate msg;
-    msg.header.stamp = stamp;
-    msg.effects = e.effects;
+  if (estimate) {
+    std::vector<double> values, stds;
     for (const auto& p : e.parameters) {
-      msg.names.push_back(p.name);
-      msg.values.push_back(p.value);
-      msg.standard_deviations.push_back(p.std);
-      msg.units.push_back(p.unit);
+      values.push_back(p.value);
+      stds.push_back(p.std);
     }
-    msg.bulk_modulus = e.parameters[HydraulicModel::kBulkModulus].value;
-    msg.bulk_modulus_std = e.parameters[HydraulicModel::kBulkModulus].std;
-    msg.valve_flow_gain = e.parameters[HydraulicModel::kValveFlowGain].value;
-    msg.valve_flow_gain_std = e.parameters[HydraulicModel::kValveFlowGain].std;
-    msg.dead_volume = e.parameters[HydraulicModel::kDeadVolume].value;
-    msg.dead_volume_std = e.parameters[HydraulicModel::kDeadVolume].std;
+    ParameterEstimate msg = toParameterEstimateMsg(identifier.model(), values, stds, stamp);
     msg.equation_error_rms = e.equation_error_rms;
     msg.updates = e.updates;
     msg.skipped_unexcited = e.skipped_unexcited;
     msg.skipped_invalid = e.skipped_invalid;
     estimate_pub_.publish(msg);
   }
-  // rviz needs no more than 10 Hz.
-  if (markers_pub_.getNumSubscribers() > 0 && ++steps_since_markers_ * config_.identification_period >= 0.1) {
+  if (markers) {
     steps_since_markers_ = 0;
     CushionView view;
     view.position = last_grid_.x;
@@ -254,20 +250,10 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
     view.phase = phase_;
     markers_pub_.publish(cushionMarkers(config_.geometry, view, e, frame_id_, stamp));
   }
-  if (comparison_pub_.getNumSubscribers() > 0) {
-    ModelComparison msg;
-    msg.header.stamp = ros::Time(std::max(last_grid_.t, 0.0));
-    msg.measured_pressure = last_grid_.p;
-    msg.modelled_pressure = modelled_pressure_;
-    msg.residual = last_grid_.p - modelled_pressure_;
-    msg.simulation_error_rms = std::sqrt(residual_square_mean_);
-    msg.equation_error_rms = e.equation_error_rms;
-    msg.position = last_grid_.x;
-    msg.velocity = last_grid_.v;
-    msg.spool_position = last_grid_.y;
-    msg.phase = static_cast<std::uint8_t>(phase_);
-    msg.phase_name = strokePhaseName(phase_);
-    comparison_pub_.publish(msg);
+  if (comparison) {
+    comparison_pub_.publish(toModelComparisonMsg(last_grid_, modelled_pressure_, phase_,
+                                                 std::sqrt(residual_square_mean_), e.equation_error_rms,
+                                                 ros::Time(std::max(last_grid_.t, 0.0))));
   }
 }
 
@@ -333,8 +319,8 @@ void IdentificationNode::publishFrequencyResponse() {
 }
 
 void IdentificationNode::finishSweep() {
-  if (last_sweep_outcome_ == "reported") return;
-  last_sweep_outcome_ = "reported";
+  if (sweep_reported_) return;
+  sweep_reported_ = true;
   publishFrequencyResponse();
   const ServoValveFit& fit = sweep_.fit();
   ValveModel msg = toValveModelMsg(fit, ros::Time::now());
@@ -379,7 +365,7 @@ bool IdentificationNode::startSweep(StartSweep::Request& req, StartSweep::Respon
   res.expected_duration = sweep_.request().totalDuration();
   res.message = "sweep started: " + std::to_string(request.frequencies.size()) + " frequencies, about " +
                 formatted("%.1f", res.expected_duration) + " s";
-  last_sweep_outcome_.clear();
+  sweep_reported_ = false;
   published_points_ = 0;
   // Commands at twice the valve rate, so that every valve update finds a fresh one despite scheduling jitter.
   sweep_timer_ =

@@ -82,7 +82,7 @@ class IdentificationNode {
   ros::Timer sweep_timer_;
   bool sweep_commanding_ = false;  // the sweep timer runs (until the offset has been sent)
   ServoValveFit last_valve_fit_;
-  std::string last_sweep_outcome_;
+  bool sweep_reported_ = false;  // the ended sweep's results have been published
   std::size_t published_points_ = 0;
 
   // Latest comparison values (grid rate), published at the identification rate.
@@ -115,10 +115,10 @@ class IdentificationNode {
   ros::Timer diagnostic_timer_;
 };
 
-/// Takes the node's callbacks in batches every 5 ms (at most 20 ms of ROS time when a simulation runs faster than
-/// real time; every 0.2 ms while a sweep commands the valve) until
-/// `stop` or shutdown, instead of waking up for each of the 3000 messages per second: the estimates run on
-/// stamps, so batching costs nothing but saves most of roscpp's per-message thread hand-overs.
+/// Takes the node's callbacks in batches every 5 ms (at most 20 ms of ROS time when a simulation runs faster
+/// than real time; every 0.2 ms while a sweep commands the valve) until `stop` or shutdown, instead of waking
+/// up for each of the 3000 messages per second: the estimates run on stamps, so batching costs nothing but
+/// saves most of roscpp's per-message thread hand-overs.
 void spinBatched(ros::CallbackQueue& queue, const IdentificationNode& node, const std::atomic<bool>& stop);
 
 }  // namespace die_cushion_ident

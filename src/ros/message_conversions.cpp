@@ -59,4 +59,42 @@ ValveModel toValveModelMsg(const ServoValveFit& fit, const ros::Time& stamp) {
   return msg;
 }
 
+ParameterEstimate toParameterEstimateMsg(const HydraulicModel& model, const std::vector<double>& values,
+                                         const std::vector<double>& stds, const ros::Time& stamp) {
+  ParameterEstimate msg;
+  msg.header.stamp = stamp;
+  msg.effects = model.effectNames();
+  for (const auto& info : model.parameterInfos()) {
+    msg.names.push_back(info.name);
+    msg.units.push_back(info.unit);
+  }
+  msg.values = values;
+  msg.standard_deviations = stds;
+  msg.bulk_modulus = values.at(HydraulicModel::kBulkModulus);
+  msg.bulk_modulus_std = stds.at(HydraulicModel::kBulkModulus);
+  msg.valve_flow_gain = values.at(HydraulicModel::kValveFlowGain);
+  msg.valve_flow_gain_std = stds.at(HydraulicModel::kValveFlowGain);
+  msg.dead_volume = values.at(HydraulicModel::kDeadVolume);
+  msg.dead_volume_std = stds.at(HydraulicModel::kDeadVolume);
+  return msg;
+}
+
+ModelComparison toModelComparisonMsg(const GridSample& sample, double modelled_pressure, StrokePhase phase,
+                                     double simulation_error_rms, double equation_error_rms,
+                                     const ros::Time& stamp) {
+  ModelComparison msg;
+  msg.header.stamp = stamp;
+  msg.measured_pressure = sample.p;
+  msg.modelled_pressure = modelled_pressure;
+  msg.residual = sample.p - modelled_pressure;
+  msg.simulation_error_rms = simulation_error_rms;
+  msg.equation_error_rms = equation_error_rms;
+  msg.position = sample.x;
+  msg.velocity = sample.v;
+  msg.spool_position = sample.y;
+  msg.phase = static_cast<std::uint8_t>(phase);
+  msg.phase_name = strokePhaseName(phase);
+  return msg;
+}
+
 }  // namespace die_cushion_ident

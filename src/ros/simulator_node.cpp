@@ -19,6 +19,7 @@
 #include "die_cushion_ident/ValveModel.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/die_cushion_simulator.h"
+#include "message_conversions.h"
 #include "ros_parameters.h"
 
 namespace die_cushion_ident {
@@ -177,19 +178,10 @@ class SimulatorNode {
   }
 
   void publishTruth() {
-    ParameterEstimate truth;
-    truth.header.stamp = ros::Time::now();
-    const auto& model = sim_.model();
-    truth.effects = model.effectNames();
-    for (int i = 0; i < model.parameterCount(); ++i) {
-      truth.names.push_back(model.parameterInfos()[i].name);
-      truth.units.push_back(model.parameterInfos()[i].unit);
-      truth.values.push_back(sim_.trueParameters()(i));
-      truth.standard_deviations.push_back(0.0);
-    }
-    truth.bulk_modulus = sim_.trueParameters()(HydraulicModel::kBulkModulus);
-    truth.valve_flow_gain = sim_.trueParameters()(HydraulicModel::kValveFlowGain);
-    truth.dead_volume = sim_.trueParameters()(HydraulicModel::kDeadVolume);
+    const auto& truth_values = sim_.trueParameters();
+    const ParameterEstimate truth = toParameterEstimateMsg(
+        sim_.model(), std::vector<double>(truth_values.data(), truth_values.data() + truth_values.size()),
+        std::vector<double>(truth_values.size(), 0.0), ros::Time::now());
     truth_pub_.publish(truth);
     ValveModel valve;
     valve.header.stamp = truth.header.stamp;

@@ -176,21 +176,7 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
   estimates_csv << ",equation_error_rms\n";
   estimates_csv.precision(10);
   for (const auto& e : r.estimates) {
-    ParameterEstimate msg;
-    msg.header.stamp = stampOf(e.t);
-    msg.effects = r.effects;
-    for (int i = 0; i < model.parameterCount(); ++i) {
-      msg.names.push_back(model.parameterInfos()[i].name);
-      msg.units.push_back(model.parameterInfos()[i].unit);
-    }
-    msg.values = e.values;
-    msg.standard_deviations = e.stds;
-    msg.bulk_modulus = e.values[0];
-    msg.bulk_modulus_std = e.stds[0];
-    msg.valve_flow_gain = e.values[1];
-    msg.valve_flow_gain_std = e.stds[1];
-    msg.dead_volume = e.values[2];
-    msg.dead_volume_std = e.stds[2];
+    ParameterEstimate msg = toParameterEstimateMsg(model, e.values, e.stds, stampOf(e.t));
     msg.equation_error_rms = e.equation_error_rms;
     bag.write("/die_cushion_ident/estimate", msg.header.stamp, msg);
     estimates_csv << Stamp{e.t};
@@ -204,18 +190,9 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
   const auto& modelled = r.assessment.modelled;
   for (std::size_t i = 0; i < grid.size() && i < modelled.size(); i += kComparisonDecimation) {
     const GridSample& g = grid[i];
-    ModelComparison msg;
-    msg.header.stamp = stampOf(g.t);
-    msg.measured_pressure = g.p;
-    msg.modelled_pressure = modelled[i];
-    msg.residual = g.p - modelled[i];
-    msg.simulation_error_rms = r.assessment.simulation_error_rms;
-    msg.equation_error_rms = r.model.equation_error_rms;
-    msg.position = g.x;
-    msg.velocity = g.v;
-    msg.spool_position = g.y;
-    msg.phase = static_cast<std::uint8_t>(r.strokes.phase[i]);
-    msg.phase_name = strokePhaseName(r.strokes.phase[i]);
+    const ModelComparison msg =
+        toModelComparisonMsg(g, modelled[i], r.strokes.phase[i], r.assessment.simulation_error_rms,
+                             r.model.equation_error_rms, stampOf(g.t));
     bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
     comparison_csv << Stamp{g.t} << "," << g.p << "," << modelled[i] << "," << msg.residual << "," << g.x
                    << "," << g.v << "," << g.y << "," << msg.phase_name << "\n";
