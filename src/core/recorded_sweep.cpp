@@ -25,13 +25,9 @@ std::vector<ValveSample>::const_iterator firstAtOrAfter(const std::vector<ValveS
                           [](const ValveSample& s, double value) { return s.t < value; });
 }
 
-struct Crossing {
-  double t;  // interpolated rising zero crossing of the command around its running mean
-};
-
 // Rising zero crossings of u - mean(u) with a Schmitt trigger at half the local amplitude, so that noise on
 // the command cannot produce extra crossings.
-std::vector<Crossing> risingCrossings(const std::vector<ValveSample>& s, int window, double min_amplitude) {
+std::vector<double> risingCrossings(const std::vector<ValveSample>& s, int window, double min_amplitude) {
   const std::size_t n = s.size();
   const double origin = s.front().voltage;
   std::vector<double> sum(n + 1, 0.0), sum_squares(n + 1, 0.0);
@@ -40,7 +36,7 @@ std::vector<Crossing> risingCrossings(const std::vector<ValveSample>& s, int win
     sum[i + 1] = sum[i] + u;
     sum_squares[i + 1] = sum_squares[i] + u * u;
   }
-  std::vector<Crossing> crossings;
+  std::vector<double> crossings;
   bool high = false;
   double last_zero = std::numeric_limits<double>::quiet_NaN();
   double previous = 0.0;
@@ -60,7 +56,7 @@ std::vector<Crossing> risingCrossings(const std::vector<ValveSample>& s, int win
       high = false;
     } else if (!high && d > hysteresis) {
       high = true;
-      if (std::isfinite(last_zero)) crossings.push_back({last_zero});
+      if (std::isfinite(last_zero)) crossings.push_back(last_zero);
     } else if (high && d < -hysteresis) {
       high = false;
     }
@@ -115,17 +111,17 @@ std::vector<SweepSegment> detectSweepSegments(const std::vector<ValveSample>& sa
   while (first + 1 < crossings.size()) {
     // Grow a run of crossings whose spacing stays within the tolerance of the run's mean period.
     std::size_t last = first + 1;
-    double period_sum = crossings[last].t - crossings[first].t;
+    double period_sum = crossings[last] - crossings[first];
     while (last + 1 < crossings.size()) {
-      const double period = crossings[last + 1].t - crossings[last].t;
+      const double period = crossings[last + 1] - crossings[last];
       const double mean_period = period_sum / (last - first);
       if (std::abs(period - mean_period) > options.period_tolerance * mean_period) break;
       period_sum += period;
       ++last;
     }
     SweepSegment run;
-    run.begin = crossings[first].t;
-    run.end = crossings[last].t;
+    run.begin = crossings[first];
+    run.end = crossings[last];
     run.frequency = (last - first) / (run.end - run.begin);
     const bool short_run = last - first < 3;  // an odd period or two: noise, a lost message, a step
     first = last;
