@@ -114,14 +114,17 @@ void DieCushionSimulator::step(std::vector<SimulatedMeasurement>* out) {
   const auto now = program_.at(state_.t);
   state_.pressure_setpoint = now.pressure_setpoint;
   const double measured_p = state_.p + config_.sensors.pressure_noise * normal_(rng_);
+  const bool continuous = !override_voltage_ && command_signal_;
   state_.u = override_voltage_ ? *override_voltage_
+             : continuous      ? command_signal_(state_.t)
                                : controller_.update(dt, measured_p, now.pressure_setpoint, now.v);
   if (out) sampleValve(out);
   const int substeps = std::max(1, static_cast<int>(std::ceil(dt / config_.integration_step - 1e-9)));
   const double h = dt / substeps;
   for (int i = 0; i < substeps; ++i) {
     const double y0 = valve_.position();
-    const double y1 = valve_.advance(h, state_.u);
+    // A continuous command changes within the control period: the valve sees it at each step's middle.
+    const double y1 = valve_.advance(h, continuous ? command_signal_(state_.t + 0.5 * h) : state_.u);
     integratePlant(state_.t, h, y0, y1);
     state_.t += h;
     state_.y = y1;

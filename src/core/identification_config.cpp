@@ -1,5 +1,6 @@
 #include "die_cushion_ident/core/identification_config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -20,6 +21,23 @@ bool parseRegressionForm(const std::string& text, RegressionForm* form) {
     return false;
   }
   return true;
+}
+
+std::array<double, kInputStreamCount> IdentificationConfig::appliedTopicDelays() const {
+  std::array<double, kInputStreamCount> applied = topic_delays;
+  for (double& d : applied) d = std::isfinite(d) ? d : 0.0;
+  return applied;
+}
+
+bool IdentificationConfig::topicDelaysSet() const {
+  for (double d : topic_delays) {
+    if (!std::isnan(d)) return true;
+  }
+  return false;
+}
+
+int IdentificationConfig::velocityHalfWidth() const {
+  return std::max(1, static_cast<int>(std::lround(0.5 * velocity_window / resampler.sample_period)));
 }
 
 int IdentificationConfig::decimation() const {
@@ -51,6 +69,12 @@ const NumericKey kNumericKeys[] = {
     {"valve_damping", [](IdentificationConfig& c) { return &c.valve.damping; }},
     {"valve_gain", [](IdentificationConfig& c) { return &c.valve.gain; }},
     {"valve_dead_time", [](IdentificationConfig& c) { return &c.valve.dead_time; }},
+    {"valve_command_hold", [](IdentificationConfig& c) { return &c.valve_command_hold; }},
+    {"velocity_window", [](IdentificationConfig& c) { return &c.velocity_window; }},
+    {"topic_delays/pressure", [](IdentificationConfig& c) { return &c.topic_delays[0]; }},
+    {"topic_delays/position", [](IdentificationConfig& c) { return &c.topic_delays[1]; }},
+    {"topic_delays/valve", [](IdentificationConfig& c) { return &c.topic_delays[2]; }},
+    {"topic_delay_search", [](IdentificationConfig& c) { return &c.topic_delay_search; }},
 };
 
 class Checker {
@@ -131,6 +155,15 @@ std::vector<std::string> IdentificationConfig::validate() const {
   c.range("valve_damping", valve.damping, 0.0, 10.0, "", true);
   c.range("valve_gain", valve.gain, -100.0, 100.0, "1/V");
   c.range("valve_dead_time", valve.dead_time, 0.0, 1.0, "s");
+  // NaN means "not set" for these: a default from the data.
+  if (!std::isnan(valve_command_hold)) c.range("valve_command_hold", valve_command_hold, 0.0, 1.0, "s");
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    if (std::isnan(topic_delays[s])) continue;
+    const std::string key = std::string("topic_delays/") + inputStreamName(static_cast<InputStream>(s));
+    c.range(key.c_str(), topic_delays[s], -1.0, 1.0, "s");
+  }
+  c.range("topic_delay_search", topic_delay_search, 0.0, 0.5, "s");
+  c.range("velocity_window", velocity_window, 2.0 * resampler.sample_period, 1.0, "s");
   try {
     const HydraulicModel model = HydraulicModel::fromNames(geometry, effects, custom_effects);
     for (const auto& [name, value] : initial_parameters) {

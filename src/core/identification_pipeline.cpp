@@ -6,30 +6,47 @@ namespace die_cushion_ident {
 
 IdentificationPipeline::IdentificationPipeline(const IdentificationConfig& config)
     : resampler_(config.resampler),
+      velocity_(config.velocityHalfWidth()),
       identifier_(config),
+      delays_(config.appliedTopicDelays()),
+      sample_period_(config.resampler.sample_period),
       spool_predictor_(config.valve),
       max_gap_(config.resampler.max_gap) {
   grid_.reserve(64);
+  resampled_.reserve(64);
 }
 
 UniformResampler::PushResult IdentificationPipeline::push(InputStream stream, const StreamSample& sample) {
   ++messages_;
-  StreamSample predicted = sample;
-  if (stream == InputStream::kValve) predictSpool(&predicted);
-  const auto result = resampler_.push(stream, predicted, &grid_);
-  if (result == UniformResampler::PushResult::kRestarted) identifier_.reset();
+  StreamSample corrected = sample;
+  corrected.stamp -= delays_[static_cast<int>(stream)];
+  if (stream == InputStream::kValve) predictSpool(&corrected);
+  const auto result = resampler_.push(stream, corrected, &resampled_);
+  if (result == UniformResampler::PushResult::kRestarted) {
+    // Finish the old time base's samples before the identifier starts again.
+    velocity_.flush(&grid_);
+    consume();
+    identifier_.reset();
+  }
+  for (const GridSample& g : resampled_) velocity_.push(g, &grid_);
+  resampled_.clear();
   consume();
   return result;
 }
 
 void IdentificationPipeline::flush() {
-  resampler_.flush(&grid_);
+  resampler_.flush(&resampled_);
+  for (const GridSample& g : resampled_) velocity_.push(g, &grid_);
+  resampled_.clear();
+  velocity_.flush(&grid_);
   consume();
 }
 
 void IdentificationPipeline::reset() {
   resampler_.reset();
+  velocity_.reset();
   identifier_.reset();
+  resampled_.clear();
   grid_.clear();
   messages_ = 0;
   spool_predictor_.reset();

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 
 #include "die_cushion_ident/core/free_run_pressure.h"
 #include "die_cushion_ident/core/stroke_phase_classifier.h"
@@ -11,6 +12,10 @@
 namespace die_cushion_ident {
 
 namespace {
+
+// A recording's last cycle is complete once the cushion is back within this share of its stroke from
+// where the ram met it.
+constexpr double kTopTolerance = 0.05;
 
 struct Accumulator {
   int n = 0;
@@ -75,17 +80,32 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
   StrokePhaseClassifier classifier;
   int cycle = -1;
   StrokePhase previous = StrokePhase::kRest;
+  // The last cycle counts when it is complete: the cushion went back up to where the ram met it.
+  bool returned = false;
+  double impact_x = 0.0, deepest = 0.0, last_x = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t i = 0; i < grid.size(); ++i) {
     if (grid[i].discontinuity) classifier.reset();
     const StrokePhase phase = classifier.classify(grid[i]);
     const bool impact =
         phase == StrokePhase::kImpact || (phase == StrokePhase::kDrawing && previous == StrokePhase::kRest);
-    if (impact && previous != StrokePhase::kImpact && previous != StrokePhase::kDrawing) ++cycle;
+    if (impact && previous != StrokePhase::kImpact && previous != StrokePhase::kDrawing) {
+      ++cycle;
+      returned = false;
+      impact_x = deepest = std::isfinite(grid[i].x) ? grid[i].x : 0.0;
+    }
+    if (phase == StrokePhase::kReturn) returned = true;
+    if (std::isfinite(grid[i].x)) {
+      last_x = grid[i].x;
+      deepest = std::max(deepest, last_x);
+    }
     s.phase[i] = phase;
     s.cycle[i] = cycle;
     previous = phase;
   }
-  s.cycles = std::max(cycle, 0);  // the last one may be incomplete
+  const double stroke = deepest - impact_x;
+  const bool last_complete = cycle >= 0 && returned && stroke > 0.0 &&
+                             last_x - impact_x <= kTopTolerance * stroke;
+  s.cycles = std::max(last_complete ? cycle + 1 : cycle, 0);
   return s;
 }
 

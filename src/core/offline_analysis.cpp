@@ -2,6 +2,7 @@
 
 #include <climits>
 #include <cmath>
+#include <cstdio>
 
 namespace die_cushion_ident {
 
@@ -30,12 +31,47 @@ void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
   }
 }
 
+std::vector<std::string> implausibleParameters(const HydraulicModel& model, const HydraulicEstimate& estimate,
+                                               double sigmas, std::vector<std::string>* uncertain) {
+  std::vector<std::string> problems;
+  const auto& infos = model.parameterInfos();
+  for (std::size_t i = 0; i < infos.size() && i < estimate.parameters.size(); ++i) {
+    const double value = estimate.parameters[i].value, std = estimate.parameters[i].std;
+    const bool positive_required = i == HydraulicModel::kBulkModulus || i == HydraulicModel::kValveFlowGain;
+    const double low = infos[i].lower_bound, high = infos[i].upper_bound;
+    if (std::isfinite(value) && value >= low && value <= high && !(positive_required && value <= 0.0)) continue;
+    char text[256];
+    std::snprintf(text, sizeof(text), "%s = %.4g +/- %.2g %s is outside its physical range [%.3g, %.3g]",
+                  infos[i].name.c_str(), value, std, infos[i].unit.c_str(), low, high);
+    // Outside, but within its uncertainty of the range: the data do not pin it down, which is no fault.
+    const double distance = value < low ? low - value : value - high;
+    const bool consistent = std::isfinite(value) && std::isfinite(std) && distance <= sigmas * std &&
+                            !(positive_required && value <= 0.0);
+    if (consistent) {
+      if (uncertain) uncertain->push_back(text);
+    } else {
+      problems.push_back(text);
+    }
+  }
+  return problems;
+}
+
+TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
+  if (!flushed_) pipeline_.flush();
+  flushed_ = true;
+  return die_cushion_ident::estimateTopicDelays(grid_, config_);
+}
+
 OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string&)>& progress) {
   const auto tell = [&](const std::string& what) {
     if (progress) progress(what);
   };
-  pipeline_.flush();
+  if (!flushed_) pipeline_.flush();
+  flushed_ = true;
   OfflineResult r;
+  r.topic_delays = config_.appliedTopicDelays();
+  r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
+  r.derived_velocity_samples = pipeline_.derivedVelocitySamples();
   r.messages = messages_;
   r.grid_samples = grid_.size();
   for (int s = 0; s < kInputStreamCount; ++s)
@@ -46,29 +82,76 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
       HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
   r.effects = model.effectNames();
 
-  r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0;
+  // Every reason a part of the analysis could not run, in words and with what to do.
+  const auto cannot = [&r](const std::string& why) {
+    r.warnings.push_back(why);
+    r.partial = true;
+  };
+  const bool valve_stream = r.health[2].accepted > 0;
+  r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0 && valve_stream;
+  std::uint64_t complete = 0, with_velocity = 0;
+  for (const GridSample& g : grid_) {
+    complete += g.complete ? 1 : 0;
+    with_velocity += g.complete && std::isfinite(g.v) ? 1 : 0;
+  }
+  if (!r.hydraulics) {
+    cannot(std::string("the ") + (r.health[0].accepted == 0 ? "pressure" : r.health[1].accepted == 0 ? "position" : "valve") +
+           " topic gave no usable message: the hydraulics were not identified (check the topic names in the "
+           "config's topics: and the warnings above)");
+  } else if (complete == 0) {
+    cannot("pressure, position and valve never overlap in time (no sample has all three): the hydraulics "
+           "were not identified; check the stamps (topics stamped by different clocks far apart?)");
+    r.hydraulics = false;
+  }
   if (r.hydraulics) {
+    if (with_velocity == 0) {
+      cannot("no velocity: the position topic carries none and none could be derived from the positions; "
+             "the model comparison and the effect ranking could not run");
+    }
     tell("segmenting the strokes");
     r.strokes = segmentStrokes(grid_);
     tell("fitting the model to the whole recording");
     r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
     if (r.model.updates == 0) {
-      r.warnings.push_back(
-          "the recording never excites the hydraulics (no press stroke): no parameters identified");
+      cannot("the recording never excites the hydraulics (no press stroke with the pressure above "
+             "min_pressure): no parameters identified");
+    } else {
+      std::vector<std::string> uncertain;
+      for (const auto& problem : implausibleParameters(model, r.model, 3.0, &uncertain)) {
+        cannot("implausible estimate: " + problem +
+               "; the model does not describe this recording (wrong joint, units or topic, or a large "
+               "clock offset between the topics); the comparison below is not a valid model check");
+      }
+      for (const auto& doubt : uncertain) {
+        r.warnings.push_back(doubt + ", but within 3 standard deviations of it: the recording does not pin "
+                             "it down (more varied strokes would), or an effect the model lacks pulls it");
+      }
     }
     ParameterVector theta(model.parameterCount());
     for (int i = 0; i < model.parameterCount(); ++i) theta(i) = r.model.parameters[i].value;
     tell("running the model free against the measurement");
     r.assessment = assessModel(grid_, r.strokes, model, theta, config_.min_pressure);
+    if (r.assessment.samples == 0) {
+      cannot("the identified model could not be run against the measurement (no sample with pressure, "
+             "position, velocity and spool all known above min_pressure): no simulation error");
+    }
     tell("trying the library's other effects on held-out cycles");
     r.ranking = rankEffects(grid_, r.strokes, config_);
-  } else {
-    r.warnings.push_back("pressure or position missing: the hydraulics were not identified");
+    if (r.strokes.cycles == 0) {
+      cannot("no complete press stroke (impact, drawing, return to the top) in the recording: the effect "
+             "ranking could not run; record at least three complete strokes");
+    } else if (r.strokes.cycles < EffectRankingOptions().min_held_out_cycles) {
+      cannot("only " + std::to_string(r.strokes.cycles) + " complete press stroke(s): the effect ranking "
+             "needs " + std::to_string(EffectRankingOptions().min_held_out_cycles) +
+             " to judge on held-out strokes; every verdict is inconclusive");
+    }
   }
 
   if (!valve_.empty()) {
     tell("looking for valve sine sweeps");
-    RecordedSweep sweep = analyzeRecordedSweep(valve_);
+    RecordedSweepOptions options;
+    options.command_hold = config_.valve_command_hold;  // NaN: one valve message interval
+    RecordedSweep sweep = analyzeRecordedSweep(valve_, options);
     if (!sweep.segments.empty()) r.valve = std::move(sweep);
   }
   return r;

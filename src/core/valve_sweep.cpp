@@ -225,7 +225,7 @@ void ValveSweep::beginFrequency(double now) {
   const double settle = std::max(request_.settle_periods / f, request_.settle_time);
   const double periods = std::max(request_.integration_periods, std::ceil(request_.min_integration_time * f));
   FrequencyPointEstimator::Options options;
-  options.command_hold = limits_.command_period;
+  options.command_hold = std::isnan(command_hold_) ? limits_.command_period : command_hold_;
   options.sample_rate = 1.0 / limits_.command_period;
   options.max_distortion = limits_.max_distortion;
   segment_start_ = now;
@@ -257,6 +257,13 @@ std::optional<double> ValveSweep::command(double now) {
     return bounded(request_.offset);
   }
   return std::nullopt;
+}
+
+double ValveSweep::commandAt(double t) const {
+  if (!running() || segment_pending_) return request_.offset;
+  const double u = request_.offset +
+                   request_.amplitude * std::sin(2.0 * M_PI * currentFrequency() * (t - segment_start_));
+  return std::clamp(u, limits_.min_voltage, limits_.max_voltage);
 }
 
 void ValveSweep::abort(const std::string& reason) {

@@ -26,6 +26,8 @@ constexpr double kResidualWeight = 1.0 / 1300.0;
 constexpr double kSilenceLimit = 1.0;
 // RLS updates (10 ms each, only while excited) before the model comparison counts: about one stroke.
 constexpr std::uint64_t kUpdatesBeforeComparison = 100;
+// [s] a clock offset between topics beyond this deserves a look at the recording setup.
+constexpr double kLargeTopicOffset = 0.005;
 
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
@@ -59,6 +61,8 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   const auto problems = loadParameters(pnh_, &config_, &limits_, &settings_);
   if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + join(problems, "\n  "));
   sweep_ = ValveSweep(limits_);
+  sweep_.setCommandHold(config_.valve_command_hold);
+  joints_ = JointSelector(settings_.joint_name);
   rebuildPipeline();
 
   estimate_pub_ = pnh_.advertise<ParameterEstimate>("estimate", 10);
@@ -91,6 +95,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   updater_.add("estimator", this, &IdentificationNode::diagnoseEstimator);
   updater_.add("valve model", this, &IdentificationNode::diagnoseValve);
   updater_.add("model adequacy", this, &IdentificationNode::diagnoseAdequacy);
+  updater_.add("input timing", this, &IdentificationNode::diagnoseTiming);
   diagnostic_timer_ =
       nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) { updater_.update(); });
 
@@ -144,26 +149,22 @@ void IdentificationNode::onPressure(const sensor_msgs::FluidPressure::ConstPtr& 
 void IdentificationNode::onPosition(const sensor_msgs::JointState::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   const int s = static_cast<int>(InputStream::kPosition);
-  if (msg->position.empty()) {
+  StreamSample sample;
+  const JointSelector::Result result = joints_.select(*msg, &sample);
+  if (result != JointSelector::Result::kSelected) {
     ++rejected_[s];
-    last_rejection_[s] = "JointState without position[0]";
-    ROS_WARN_THROTTLE(5.0, "position: JointState without position[0] ignored");
+    last_rejection_[s] = joints_.problem();
+    ROS_WARN_THROTTLE(5.0, "die_cushion_ident: position message rejected: %s", joints_.problem().c_str());
     return;
   }
-  const double stamp = msg->header.stamp.toSec();
-  const double x = msg->position[0];
-  const double v = msg->velocity.empty() ? kNaN : msg->velocity[0];
-  if (std::isfinite(x)) {
-    // The safety check needs a velocity even when the topic carries none: difference the positions.
-    if (std::isfinite(v)) {
-      velocity_ = v;
-    } else if (stamp > position_stamp_ && stamp - position_stamp_ < 0.1) {
-      velocity_ = (x - position_) / (stamp - position_stamp_);
-    }
-    position_ = x;
-    position_stamp_ = stamp;
+  if (joints_.ambiguous() && !ambiguity_reported_) {
+    ambiguity_reported_ = true;
+    ROS_WARN("die_cushion_ident: %s", joints_.ambiguity().c_str());
   }
-  push(InputStream::kPosition, {stamp, x, v});
+  // The safety check needs a velocity even when the topic carries none: a least-squares slope over 20 ms
+  // (a difference of two messages would turn position noise into motion).
+  velocity_.push(sample.stamp, sample.first);
+  push(InputStream::kPosition, sample);
 }
 
 void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
@@ -179,6 +180,7 @@ void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
 
 void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
   const auto result = pipeline_->push(stream, sample);
+  applyPendingTopicDelays();
   if (result == UniformResampler::PushResult::kRestarted) {
     ROS_WARN("die_cushion_ident: %s stamp jumped (bag restarted?): identification restarted",
              inputStreamName(stream));
@@ -207,6 +209,14 @@ void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdenti
   }
   phase_ = classifier_.classify(g);
   modelled_pressure_ = free_run_->step(g, identifier.physicalParameters());
+  // What keeps the comparison from running, for the adequacy diagnostic (instead of waiting in silence).
+  comparison_blocker_ = !g.complete           ? "a topic is silent or stale (see the input diagnostics)"
+                        : !std::isfinite(g.v) ? "no velocity (the position topic carries none and it cannot be "
+                                                "derived: positions missing or not finite)"
+                        : !std::isfinite(g.y) ? "no spool position (not measured and not predictable)"
+                        : g.p < config_.min_pressure
+                            ? "the pressure is below min_pressure, where the model is not trusted"
+                            : "";
   // The comparison counts once the estimator has seen some excitation; before, the model is its start value.
   const bool estimator_started = identifier.updates() >= kUpdatesBeforeComparison;
   if (estimator_started && std::isfinite(modelled_pressure_) && !free_run_->anchoredThisStep() &&
@@ -257,8 +267,29 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
   }
 }
 
+void IdentificationNode::estimateTopicDelays(const std::vector<GridSample>& grid) {
+  if (config_.topicDelaysSet() || delay_estimate_) return;
+  TopicDelayEstimate estimate = die_cushion_ident::estimateTopicDelays(grid, config_);
+  if (!estimate.valid) return;  // not enough excitation in the window yet: try at the next ranking
+  delay_estimate_ = estimate;
+  if (!estimate.significant(config_.resampler.sample_period)) return;
+  delays_pending_ = true;
+}
+
+void IdentificationNode::applyPendingTopicDelays() {
+  if (!delays_pending_) return;
+  delays_pending_ = false;
+  config_.topic_delays = delay_estimate_->delays;
+  ROS_WARN("die_cushion_ident: the topics' stamps are offset (position %+.2f ms, valve %+.2f ms against "
+           "pressure, estimated from the data): corrected, identification restarted; set ~topic_delays to "
+           "fix them",
+           config_.topic_delays[1] * 1e3, config_.topic_delays[2] * 1e3);
+  rebuildPipeline();
+}
+
 void IdentificationNode::rankEffects() {
   const std::vector<GridSample> grid(window_.begin(), window_.end());
+  estimateTopicDelays(grid);
   const StrokeSegmentation strokes = segmentStrokes(grid);
   ranking_ = die_cushion_ident::rankEffects(grid, strokes, config_);
   die_cushion_ident::EffectRanking msg;
@@ -284,7 +315,7 @@ PlantCondition IdentificationNode::plantCondition(double now) const {
   PlantCondition c;
   c.pressure = pressure_;
   c.pressure_age = now - pressure_stamp_;
-  c.velocity = velocity_;
+  c.velocity = velocity_.velocity();
   c.spool_age = now - spool_stamp_;
   return c;
 }
@@ -577,7 +608,18 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
     }
   }
   if (residual_samples_ < 500) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "not enough data yet");
+    const std::uint64_t updates = pipeline_->identifier().updates();
+    std::string why;
+    if (updates < kUpdatesBeforeComparison) {
+      why = "the estimator has " + std::to_string(updates) + " of " + std::to_string(kUpdatesBeforeComparison) +
+            " updates (the press must stroke)";
+    } else if (!comparison_blocker_.empty()) {
+      why = "the model cannot run: " + comparison_blocker_;
+    } else {
+      why = std::to_string(residual_samples_) + " of 500 samples compared";
+    }
+    status.add("why no comparison yet", why);
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "not enough data yet: " + why);
   } else if (rms > settings_.adequacy_error_error) {
     status.summary(
         diagnostic_msgs::DiagnosticStatus::ERROR,
@@ -589,6 +631,43 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK,
                    "the model follows the pressure within " + formatted("%.1f bar", rms * 1e-5) + " rms");
+  }
+}
+
+void IdentificationNode::diagnoseTiming(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto& applied = pipeline_->topicDelays();
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    status.add(std::string("delay of ") + inputStreamName(static_cast<InputStream>(s)) + " stamps [ms]",
+               formatted("%+.2f", applied[s] * 1e3));
+  }
+  status.add("joint", settings_.joint_name.empty() ? std::string("(default)") : settings_.joint_name);
+  status.add("velocity derived from position [samples]", pipeline_->derivedVelocitySamples());
+  status.add("latency of the velocity stage [ms]", formatted("%.1f", pipeline_->velocityDelay() * 1e3));
+  if (joints_.ambiguous()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, joints_.ambiguity());
+    return;
+  }
+  if (config_.topicDelaysSet() && !delay_estimate_) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "topic delays configured (~topic_delays)");
+    return;
+  }
+  if (!delay_estimate_) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK,
+                   "clock offsets between the topics not estimated yet (needs strokes in the ranking window)");
+    return;
+  }
+  double largest = 0.0;
+  for (double d : delay_estimate_->delays) largest = std::max(largest, std::abs(d));
+  status.add("estimated position offset [ms]", formatted("%+.2f", delay_estimate_->delays[1] * 1e3));
+  status.add("estimated valve offset [ms]", formatted("%+.2f", delay_estimate_->delays[2] * 1e3));
+  if (largest > kLargeTopicOffset) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
+                   "topics stamped by different clocks: up to " + formatted("%.1f ms", largest * 1e3) +
+                       " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK,
+                   "topics in step (largest offset " + formatted("%.2f ms", largest * 1e3) + ")");
   }
 }
 

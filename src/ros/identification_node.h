@@ -22,7 +22,10 @@
 #include "die_cushion_ident/core/free_run_pressure.h"
 #include "die_cushion_ident/core/identification_pipeline.h"
 #include "die_cushion_ident/core/stroke_phase_classifier.h"
+#include "die_cushion_ident/core/topic_delay_estimator.h"
 #include "die_cushion_ident/core/valve_sweep.h"
+#include "die_cushion_ident/core/velocity_from_position.h"
+#include "message_conversions.h"
 #include "ros_parameters.h"
 
 namespace die_cushion_ident {
@@ -68,6 +71,11 @@ class IdentificationNode {
   void diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void diagnoseTiming(diagnostic_updater::DiagnosticStatusWrapper& status);
+  /// Estimates the topics' clock offsets on the ranking window once (unless configured); a significant
+  /// offset is applied after the current message (the pipeline is rebuilt, so not from its own callback).
+  void estimateTopicDelays(const std::vector<GridSample>& grid);
+  void applyPendingTopicDelays();
 
   ros::NodeHandle nh_, pnh_;
   IdentificationConfig config_;
@@ -92,15 +100,21 @@ class IdentificationNode {
   std::uint64_t residual_samples_ = 0;
   StrokePhase phase_ = StrokePhase::kRest;
   double phase_square_error_[6] = {0, 0, 0, 0, 0, 0};  // per phase, same weighting
+  std::string comparison_blocker_;  // why the last grid sample could not be compared ("" = it could)
 
   // Latest plant signals for the sweep's safety checks: values and their stamps [s].
   double pressure_ = std::numeric_limits<double>::quiet_NaN(), pressure_stamp_ = -1e18;
-  double velocity_ = std::numeric_limits<double>::quiet_NaN(), position_ = 0.0, position_stamp_ = -1e18;
+  CausalVelocity velocity_;  // of the raw position messages, for "at rest"
+  JointSelector joints_;
+  bool ambiguity_reported_ = false;
   double spool_stamp_ = -1e18;
   std::uint64_t rejected_[kInputStreamCount] = {0, 0, 0};
   std::string last_rejection_[kInputStreamCount];
 
   ros::Subscriber pressure_sub_, position_sub_, valve_sub_;
+  // Clock offsets between the topics: configured, or estimated once from the data.
+  std::optional<TopicDelayEstimate> delay_estimate_;
+  bool delays_pending_ = false;
   // The last grid samples for the live effect ranking, and its latest result.
   std::deque<GridSample> window_;
   double last_ranking_time_ = -1e18;

@@ -1,6 +1,8 @@
 #include "message_conversions.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace die_cushion_ident {
 
@@ -95,6 +97,41 @@ ModelComparison toModelComparisonMsg(const GridSample& sample, double modelled_p
   msg.phase = static_cast<std::uint8_t>(phase);
   msg.phase_name = strokePhaseName(phase);
   return msg;
+}
+
+std::string jointNames(const sensor_msgs::JointState& msg) {
+  std::string names;
+  for (const auto& n : msg.name) names += (names.empty() ? "'" : ", '") + n + "'";
+  return names.empty() ? std::string("(no names)") : names;
+}
+
+JointSelector::Result JointSelector::select(const sensor_msgs::JointState& msg, StreamSample* sample) {
+  std::size_t index = 0;
+  if (!joint_name_.empty()) {
+    const auto it = std::find(msg.name.begin(), msg.name.end(), joint_name_);
+    if (it == msg.name.end()) {
+      problem_ = "joint '" + joint_name_ + "' is not in the JointState; it holds " + jointNames(msg) +
+                 " (set joint_name to one of them)";
+      return Result::kJointMissing;
+    }
+    index = static_cast<std::size_t>(it - msg.name.begin());
+  } else if (msg.position.size() > 1 && ambiguity_.empty()) {
+    ambiguity_ = "the position topic holds " + std::to_string(msg.position.size()) + " joints (" +
+                 jointNames(msg) + ") and no joint_name is configured: position[0]" +
+                 (msg.name.empty() ? std::string() : " ('" + msg.name[0] + "')") +
+                 " is taken as the cushion; set joint_name if that is wrong";
+  }
+  if (index >= msg.position.size()) {
+    problem_ = msg.position.empty() ? "JointState without position"
+                                    : "JointState names joint '" + joint_name_ + "' but has only " +
+                                          std::to_string(msg.position.size()) + " positions";
+    return Result::kNoPosition;
+  }
+  sample->stamp = msg.header.stamp.toSec();
+  sample->first = msg.position[index];
+  sample->second =
+      index < msg.velocity.size() ? msg.velocity[index] : std::numeric_limits<double>::quiet_NaN();
+  return Result::kSelected;
 }
 
 }  // namespace die_cushion_ident

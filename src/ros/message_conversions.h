@@ -9,6 +9,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "sensor_msgs/JointState.h"
 #include "die_cushion_ident/core/hydraulic_model.h"
 #include "die_cushion_ident/core/press_cycle.h"
 #include "die_cushion_ident/core/servo_valve_fit.h"
@@ -34,5 +35,33 @@ ParameterEstimate toParameterEstimateMsg(const HydraulicModel& model, const std:
 ModelComparison toModelComparisonMsg(const GridSample& sample, double modelled_pressure, StrokePhase phase,
                                      double simulation_error_rms, double equation_error_rms,
                                      const ros::Time& stamp);
+
+/// Picks the cushion's joint out of a JointState (shared/CONTRACT.md): the joint named `joint_name`, or,
+/// with no name configured, the message's only joint, else position[0] (ambiguous: say so once). Its
+/// velocity is taken where the message carries one, else NaN (derived from the position downstream).
+class JointSelector {
+ public:
+  enum class Result { kSelected, kNoPosition, kJointMissing };
+
+  explicit JointSelector(std::string joint_name = "") : joint_name_(std::move(joint_name)) {}
+
+  /// Fills `sample` (stamp, x, v) from the message.
+  Result select(const sensor_msgs::JointState& msg, StreamSample* sample);
+  /// Why the last message was not used, in words (names the joints it holds).
+  const std::string& problem() const { return problem_; }
+  /// True once a message with several joints was read without a configured joint_name (position[0] used);
+  /// `ambiguity()` says which joints it held.
+  bool ambiguous() const { return !ambiguity_.empty(); }
+  const std::string& ambiguity() const { return ambiguity_; }
+  const std::string& jointName() const { return joint_name_; }
+
+ private:
+  std::string joint_name_;
+  std::string problem_;
+  std::string ambiguity_;
+};
+
+/// "a, b, c" (or "(no names)") for messages that list joints.
+std::string jointNames(const sensor_msgs::JointState& msg);
 
 }  // namespace die_cushion_ident

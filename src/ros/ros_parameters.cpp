@@ -81,6 +81,9 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   if (pnh.getParam("regression_form", form) && !parseRegressionForm(form, &config->regression_form)) {
     problems.push_back("~regression_form = " + form + " is invalid: allowed integral, derivative");
   }
+  if (pnh.hasParam("joint_name") && (!pnh.getParam("joint_name", settings->joint_name) || settings->joint_name.empty())) {
+    problems.push_back("~joint_name is invalid: must be the name of a joint in the position topic's JointState");
+  }
   readStrings(pnh, "effects", &config->effects, &problems);
   readStrings(pnh, "custom_effects", &config->custom_effects, &problems);
 

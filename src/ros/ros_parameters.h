@@ -16,6 +16,7 @@ struct NodeSettings {
   double adequacy_error_error = 10e5;  ///< [Pa] ... and above which it is wrong
   double effect_ranking_window = 30.0;  ///< [s] of recent data the live effect ranking looks at
   double effect_ranking_period = 10.0;  ///< [s] between two rankings
+  std::string joint_name;  ///< the cushion's joint in the position topic; "" = the only one, else index 0
 };
 
 /// A list of strings: a YAML list, or one string "a,b" / "[a, b]" as given on a command line (commas

@@ -82,11 +82,34 @@ std::vector<std::string> loadAnalysisConfig(const std::string& path, Identificat
         }
         *target = topic.second.as<std::string>();
       }
+    } else if (key == "joint_name") {
+      if (!value.IsScalar() || value.as<std::string>().empty()) {
+        problems.push_back("joint_name: must be the name of a joint in the position topic's JointState");
+        continue;
+      }
+      topics->joint_name = value.as<std::string>();
+    } else if (key == "topic_delays") {
+      if (!value.IsMap()) {
+        problems.push_back("topic_delays: must be a mapping {pressure: s, position: s, valve: s}");
+        continue;
+      }
+      for (const auto& delay : value) {
+        const std::string name = delay.first.as<std::string>();
+        if (name != "pressure" && name != "position" && name != "valve") {
+          problems.push_back("topic_delays: '" + name + "' is not one of pressure, position, valve");
+          continue;
+        }
+        try {
+          setNumericConfigValue(*config, "topic_delays/" + name, delay.second.as<double>());
+        } catch (const YAML::Exception&) {
+          problems.push_back("topic_delays: " + name + " must be a number of seconds");
+        }
+      }
     } else {
       std::string allowed;
       for (const auto& k : numeric) allowed += k + ", ";
       problems.push_back("unknown key '" + key + "' (allowed: " + allowed +
-                         "effects, custom_effects, regression_form, topics)");
+                         "effects, custom_effects, regression_form, topics, joint_name, topic_delays)");
     }
   }
   return problems;

@@ -82,20 +82,41 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
   }
   out << YAML::EndMap;
   out << YAML::Key << "time_base_restarts" << YAML::Value << r.restarts;
+  out << YAML::Key << "joint_name" << YAML::Value << (input.joint_name.empty() ? "(default)" : input.joint_name);
+  // Where the velocity came from: the topic, or the positions (VelocityFromPosition).
+  out << YAML::Key << "velocity" << YAML::Value
+      << (r.derived_velocity_samples > 0 ? "derived from the position" : "measured");
+  out << YAML::Key << "topic_delays" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  for (int s = 0; s < kInputStreamCount; ++s) out << YAML::Key << kNames[s] << YAML::Value << r.topic_delays[s];
+  out << YAML::EndMap;
+  out << YAML::Key << "topic_delays_source" << YAML::Value << r.topic_delays_source;
+  if (r.delay_estimate && r.delay_estimate->valid) {
+    out << YAML::Key << "topic_delays_estimated" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    for (int s = 0; s < kInputStreamCount; ++s)
+      out << YAML::Key << kNames[s] << YAML::Value << r.delay_estimate->delays[s];
+    out << YAML::EndMap;
+    out << YAML::Key << "topic_delay_resolution" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    for (int s = 0; s < kInputStreamCount; ++s)
+      out << YAML::Key << kNames[s] << YAML::Value << r.delay_estimate->resolution[s];
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
 
   out << YAML::Key << "model" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "effects" << YAML::Value << YAML::Flow << r.effects;
   out << YAML::Key << "regression_form" << YAML::Value << regressionFormName(config.regression_form);
+  // Only what was computed: no initial values shown as estimates, no 0 for an error that was not measured.
   out << YAML::Key << "parameters" << YAML::Value;
-  emitParameters(out, r.model.parameters);
+  emitParameters(out, r.model.updates > 0 ? r.model.parameters : std::vector<IdentifiedParameter>());
   out << YAML::EndMap;
 
   out << YAML::Key << "fit" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "samples" << YAML::Value << r.assessment.samples;
   out << YAML::Key << "cycles" << YAML::Value << r.strokes.cycles;
-  out << YAML::Key << "equation_error_rms" << YAML::Value << r.model.equation_error_rms;
-  out << YAML::Key << "simulation_error_rms" << YAML::Value << r.assessment.simulation_error_rms;
+  if (r.model.updates > 0)
+    out << YAML::Key << "equation_error_rms" << YAML::Value << r.model.equation_error_rms;
+  if (r.assessment.samples > 0)
+    out << YAML::Key << "simulation_error_rms" << YAML::Value << r.assessment.simulation_error_rms;
   emitRegions(out, "by_phase", r.assessment.by_phase, true);
   emitRegions(out, "by_pressure", r.assessment.by_pressure, false);
   emitRegions(out, "by_velocity", r.assessment.by_velocity, false);

@@ -12,6 +12,7 @@ struct AnalysisInput {
   std::string topics[kInputStreamCount];
   std::uint64_t messages[kInputStreamCount] = {0, 0, 0};
   double duration = 0.0;  ///< [s] of the bag
+  std::string joint_name;  ///< configured cushion joint ("" = the only one / position[0])
 };
 
 /// Writes DIR/summary.yaml (interface contract), DIR/analysis.bag (the online estimates, the model

@@ -12,6 +12,9 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
+#include <memory>
+#include <optional>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -21,6 +24,7 @@
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/offline_analysis.h"
+#include "message_conversions.h"
 
 namespace die_cushion_ident {
 namespace {
@@ -120,6 +124,86 @@ bool makeDirectory(const std::string& path) {
   return stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
 }
 
+// What one pass over the bag's input topics found.
+struct BagPass {
+  std::uint64_t mismatched = 0;        // messages of another definition (md5sum)
+  std::uint64_t joint_missing = 0;     // JointStates without the configured joint
+  std::uint64_t without_position = 0;  // JointStates without a position for the cushion
+  std::string joint_problem, joint_ambiguity;
+  std::string read_error;  // the bag could not be read to the end
+};
+
+// Feeds the input topics of `bag` to `analysis` in time order; counts per topic in `input`.
+BagPass readInputs(rosbag::Bag& bag, const std::vector<std::string>& present, const std::string names[],
+                   const std::string& joint_name, OfflineAnalysis& analysis, AnalysisInput& input,
+                   const std::function<void(const std::string&)>& log) {
+  BagPass pass;
+  JointSelector joints(joint_name);
+  try {
+    rosbag::View view(bag, rosbag::TopicQuery(present));
+    const std::uint64_t total = view.size();
+    log("reading " + std::to_string(total) + " messages (" + std::to_string(static_cast<int>(input.duration)) +
+        " s) from " + input.bag);
+    std::uint64_t done = 0;
+    auto last_report = std::chrono::steady_clock::now();
+    for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = 0;
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& topic = m.getTopic();
+      if (topic == names[0]) {
+        if (const auto msg = m.instantiate<sensor_msgs::FluidPressure>()) {
+          analysis.push(InputStream::kPressure, {msg->header.stamp.toSec(), msg->fluid_pressure,
+                                                 std::numeric_limits<double>::quiet_NaN()});
+          ++input.messages[0];
+        } else {
+          ++pass.mismatched;
+        }
+      } else if (topic == names[1]) {
+        if (const auto msg = m.instantiate<sensor_msgs::JointState>()) {
+          ++input.messages[1];
+          StreamSample sample;
+          switch (joints.select(*msg, &sample)) {
+            case JointSelector::Result::kSelected:
+              analysis.push(InputStream::kPosition, sample);
+              break;
+            case JointSelector::Result::kJointMissing:
+              ++pass.joint_missing;
+              pass.joint_problem = joints.problem();
+              break;
+            case JointSelector::Result::kNoPosition:
+              ++pass.without_position;
+              break;
+          }
+        } else {
+          ++pass.mismatched;
+        }
+      } else if (topic == names[2]) {
+        if (const auto msg = m.instantiate<ValveSignal>()) {
+          analysis.push(InputStream::kValve, {msg->header.stamp.toSec(), msg->voltage, msg->spool_position});
+          ++input.messages[2];
+        } else {
+          ++pass.mismatched;
+        }
+      }
+      // Progress every 2 s on long bags.
+      if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
+        last_report = std::chrono::steady_clock::now();
+        log(std::to_string(100 * done / std::max<std::uint64_t>(total, 1)) + " % read (" + std::to_string(done) +
+            " messages)");
+      }
+    }
+  } catch (const std::exception& e) {
+    pass.read_error = e.what();
+  }
+  pass.joint_ambiguity = joints.ambiguity();
+  return pass;
+}
+
+std::string milliseconds(double seconds) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%+.2f ms", seconds * 1e3);
+  return text;
+}
+
 }  // namespace
 }  // namespace die_cushion_ident
 
@@ -194,7 +278,6 @@ int main(int argc, char** argv) {
   std::set<std::string> present;
   std::string listing;
   double begin = 0.0, end = 0.0;
-  std::uint64_t total = 0;
   try {
     rosbag::View everything(bag);
     for (const auto* c : everything.getConnections()) {
@@ -224,75 +307,81 @@ int main(int argc, char** argv) {
     if (!present.count(names[s])) warnings.push_back("topic " + names[s] + " is not in the bag");
   }
 
-  OfflineAnalysis analysis(config);
   AnalysisInput input;
   input.bag = options.bag;
   input.duration = end - begin;
+  input.joint_name = topics.joint_name;
   for (int s = 0; s < kInputStreamCount; ++s) input.topics[s] = names[s];
+  const std::vector<std::string> present_topics(present.begin(), present.end());
   const auto started = std::chrono::steady_clock::now();
-  try {
-    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>(present.begin(), present.end())));
-    total = view.size();
-    log("reading " + std::to_string(total) + " messages (" +
-        std::to_string(static_cast<int>(input.duration)) + " s) from " + options.bag);
-    std::uint64_t done = 0;
-    auto last_report = std::chrono::steady_clock::now();
-    std::uint64_t mismatched = 0;
-    for (const rosbag::MessageInstance& m : view) {
-      const std::string& topic = m.getTopic();
-      if (topic == names[0]) {
-        if (const auto msg = m.instantiate<sensor_msgs::FluidPressure>()) {
-          analysis.push(InputStream::kPressure, {msg->header.stamp.toSec(), msg->fluid_pressure,
-                                                 std::numeric_limits<double>::quiet_NaN()});
-          ++input.messages[0];
-        } else {
-          ++mismatched;
-        }
-      } else if (topic == names[1]) {
-        if (const auto msg = m.instantiate<sensor_msgs::JointState>()) {
-          ++input.messages[1];
-          if (!msg->position.empty()) {
-            analysis.push(
-                InputStream::kPosition,
-                {msg->header.stamp.toSec(), msg->position[0],
-                 msg->velocity.empty() ? std::numeric_limits<double>::quiet_NaN() : msg->velocity[0]});
-          }
-        } else {
-          ++mismatched;
-        }
-      } else if (topic == names[2]) {
-        if (const auto msg = m.instantiate<ValveSignal>()) {
-          analysis.push(InputStream::kValve, {msg->header.stamp.toSec(), msg->voltage, msg->spool_position});
-          ++input.messages[2];
-        } else {
-          ++mismatched;
-        }
-      }
-      // Progress every 2 s on long bags.
-      if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
-        last_report = std::chrono::steady_clock::now();
-        log(std::to_string(100 * done / std::max<std::uint64_t>(total, 1)) + " % read (" +
-            std::to_string(done) + " messages)");
-      }
+
+  auto analysis = std::make_unique<OfflineAnalysis>(config);
+  BagPass pass = readInputs(bag, present_topics, names, topics.joint_name, *analysis, input, log);
+  if (present.count(names[1]) && input.messages[1] > 0 && pass.joint_missing == input.messages[1]) {
+    fail(3, "no position message holds the cushion's joint: " + pass.joint_problem);
+  }
+  // Topics stamped by different clocks: estimate the offsets from the physics and read the bag again
+  // with the stamps corrected (only when they matter, so a well-stamped bag is read once).
+  std::optional<TopicDelayEstimate> delays;
+  if (!config.topicDelaysSet() && pass.read_error.empty()) {
+    log("estimating the clock offsets between the topics");
+    delays = analysis->estimateTopicDelays();
+    if (delays->significant(config.resampler.sample_period)) {
+      config.topic_delays = delays->delays;
+      log("position stamps " + milliseconds(delays->delays[1]) + ", valve stamps " +
+          milliseconds(delays->delays[2]) + " against pressure: reading again with the stamps corrected");
+      analysis = std::make_unique<OfflineAnalysis>(config);
+      pass = readInputs(bag, present_topics, names, topics.joint_name, *analysis, input, log);
     }
-    if (mismatched > 0) {
-      warnings.push_back(
-          std::to_string(mismatched) +
-          " messages had a different definition (md5sum) than this package's and were skipped");
-    }
-  } catch (const std::exception& e) {
-    warnings.push_back(std::string("the bag could not be read to the end (") + e.what() +
+  }
+  if (pass.mismatched > 0) {
+    warnings.push_back(std::to_string(pass.mismatched) +
+                       " messages had a different definition (md5sum) than this package's and were skipped");
+  }
+  if (pass.joint_missing > 0) {
+    warnings.push_back(std::to_string(pass.joint_missing) + " position messages skipped: " + pass.joint_problem);
+  }
+  if (pass.without_position > 0) {
+    warnings.push_back(std::to_string(pass.without_position) +
+                       " position messages without a position for the cushion's joint were skipped");
+  }
+  if (!pass.joint_ambiguity.empty()) warnings.push_back(pass.joint_ambiguity);
+  if (!pass.read_error.empty()) {
+    warnings.push_back("the bag could not be read to the end (" + pass.read_error +
                        "): the analysis covers what was read");
     log(warnings.back());
+    partial = true;
   }
   bag.close();
   if (!repaired_directory.empty()) std::system(("rm -rf '" + repaired_directory + "'").c_str());
 
-  OfflineResult result = analysis.finish([&](const std::string& step) { log(step); });
+  OfflineResult result = analysis->finish([&](const std::string& step) { log(step); });
   result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
+  if (delays) {
+    result.delay_estimate = delays;
+    if (delays->valid) {
+      // Offsets below a quarter sample are reported but not corrected: they change nothing measurable.
+      result.topic_delays_source = delays->significant(config.resampler.sample_period)
+                                       ? "estimated"
+                                       : "estimated, below a quarter sample period: not corrected";
+      constexpr double kLargeOffset = 0.005;  // [s] beyond this a recording setup deserves a look
+      for (int s = 1; s < kInputStreamCount; ++s) {
+        if (std::abs(delays->delays[s]) > kLargeOffset) {
+          result.warnings.push_back(std::string("the ") + inputStreamName(static_cast<InputStream>(s)) +
+                                    " topic's stamps are " + milliseconds(delays->delays[s]) +
+                                    " off the pressure's (estimated from the data and corrected): its "
+                                    "driver stamps on receipt or by another clock; set topic_delays to "
+                                    "fix the value, or stamp at the measurement");
+        }
+      }
+    } else {
+      result.warnings.push_back("the clock offsets between the topics could not be estimated (" +
+                                delays->message + "): the stamps are used as recorded");
+    }
+  }
   if (!makeDirectory(options.out)) fail(4, "cannot create output directory '" + options.out + "'");
   try {
-    writeAnalysis(options.out, input, config, result, analysis.grid());
+    writeAnalysis(options.out, input, config, result, analysis->grid());
   } catch (const std::exception& e) {
     fail(4, std::string("cannot write the results: ") + e.what());
   }
@@ -306,8 +395,10 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(result.messages),
                 result.messages / std::max(seconds, 1e-9) / 1e6, options.out.c_str());
   log(speed);
-  if (partial) {
-    std::cerr << "analyze_bag: partial result: the bag was cut off; see the warnings in summary.yaml\n";
+  if (partial || result.partial) {
+    std::cerr << "analyze_bag: partial result: " << (result.partial ? "part of the analysis could not run"
+                                                                     : "the bag could not be read completely")
+              << "; see the warnings in summary.yaml\n";
     return 5;
   }
   return 0;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <random>
@@ -74,6 +75,9 @@ class DieCushionSimulator {
 
   /// While set, the valve follows this voltage instead of the pressure controller (a sine sweep).
   void setValveCommandOverride(std::optional<double> voltage) { override_voltage_ = voltage; }
+  /// While set (and no override is), the valve follows u(t) evaluated at every integration step: a command
+  /// from a continuous signal generator rather than a held amplifier output. Messages sample it.
+  void setValveCommandSignal(std::function<double(double)> signal) { command_signal_ = std::move(signal); }
   /// Changes a true parameter from now on (e.g. a bulk-modulus step when air is drawn in).
   void setTrueParameter(const std::string& name, double value);
 
@@ -99,6 +103,7 @@ class DieCushionSimulator {
   PressureController controller_;
   ServoValve valve_;
   std::optional<double> override_voltage_;
+  std::function<double(double)> command_signal_;
   State state_;
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};

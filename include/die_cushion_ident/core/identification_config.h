@@ -1,5 +1,7 @@
 #pragma once
 
+#include <array>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -24,6 +26,8 @@ bool parseRegressionForm(const std::string& text, RegressionForm* form);
 
 /// Everything the hydraulic identification needs; the ROS layer and analyze_bag fill it from parameters/YAML.
 /// Names match the configuration keys; units SI.
+constexpr double kUnsetDelay() { return std::numeric_limits<double>::quiet_NaN(); }
+
 struct IdentificationConfig {
   CylinderGeometry geometry;                ///< piston_area, stroke_length, supply_pressure
   std::vector<std::string> effects;         ///< library effects in the model
@@ -50,6 +54,26 @@ struct IdentificationConfig {
 
   /// Spool model used when the spool position is not measured (NaN on the valve topic).
   ServoValveParameters valve;
+  /// [s] how long the valve amplifier holds each command; NaN (default) = one valve message interval;
+  /// 0 = the voltage was sampled from a continuous signal (no hold to divide out of a sweep's response).
+  double valve_command_hold = std::numeric_limits<double>::quiet_NaN();
+
+  /// [s] window of the least-squares differentiator that derives the velocity from the position where
+  /// the position topic carries none (VelocityFromPosition); it delays every sample by half of it. The
+  /// default (one grid sample each side: a central difference) keeps the impact sharp; a 20 ms window
+  /// smeared it and tripled the free-run error (doc/sensor_configurations.md).
+  double velocity_window = 0.004;
+  /// [s] how late each topic's stamps are against the true measurement instant (pressure, position,
+  /// valve); subtracted from the stamps. NaN = not set: analyze_bag estimates it from the data, the node
+  /// uses 0. Only differences between topics matter.
+  std::array<double, kInputStreamCount> topic_delays = {kUnsetDelay(), kUnsetDelay(), kUnsetDelay()};
+  /// [s] largest clock offset between two topics that the estimate from the data looks for.
+  double topic_delay_search = 0.05;
+
+  /// topic_delays with unset entries as 0.
+  std::array<double, kInputStreamCount> appliedTopicDelays() const;
+  bool topicDelaysSet() const;
+  int velocityHalfWidth() const;  ///< K of VelocityFromPosition [samples]
 
   /// Every problem as "name = value is invalid: allowed range"; empty when the configuration is usable.
   std::vector<std::string> validate() const;

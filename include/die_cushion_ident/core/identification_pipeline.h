@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -8,13 +9,16 @@
 #include "die_cushion_ident/core/hydraulic_identifier.h"
 #include "die_cushion_ident/core/servo_valve.h"
 #include "die_cushion_ident/core/uniform_resampler.h"
+#include "die_cushion_ident/core/velocity_from_position.h"
 
 namespace die_cushion_ident {
 
-/// The per-message path of the live node and of analyze_bag: raw stream messages -> UniformResampler ->
-/// HydraulicIdentifier. A restart of the time base (bag played again) restarts the identification too.
-/// Where the valve topic carries no spool position (NaN), the configured valve model predicts it message by
-/// message from the held command voltages, before resampling (at the valve's own rate, not the grid's).
+/// The per-message path of the live node and of analyze_bag: raw stream messages (stamps corrected by the
+/// topic delays) -> UniformResampler -> VelocityFromPosition -> HydraulicIdentifier. A restart of the time
+/// base (bag played again) restarts the identification too. Where the valve topic carries no spool position
+/// (NaN), the configured valve model predicts it message by message from the held command voltages, before
+/// resampling (at the valve's own rate, not the grid's). Where the position topic carries no velocity, it
+/// is derived from the positions on the grid; every sample then leaves the pipeline velocityDelay() later.
 class IdentificationPipeline {
  public:
   /// Called after every identification step with the identifier (estimate, last row, ...).
@@ -31,6 +35,13 @@ class IdentificationPipeline {
   void setGridCallback(GridCallback callback) { on_grid_ = std::move(callback); }
   /// Replaces the valve model that predicts an unmeasured spool (e.g. after a sweep identified it).
   void setValveModel(const ServoValveParameters& valve);
+  /// [s] subtracted from each stream's stamps (pressure, position, valve) from now on.
+  void setTopicDelays(const std::array<double, kInputStreamCount>& delays) { delays_ = delays; }
+  const std::array<double, kInputStreamCount>& topicDelays() const { return delays_; }
+  /// [s] latency of the velocity stage (half the differentiator window).
+  double velocityDelay() const { return velocity_.delaySamples() * sample_period_; }
+  /// Grid samples whose velocity was derived from the position.
+  std::uint64_t derivedVelocitySamples() const { return velocity_.derived(); }
 
   const HydraulicIdentifier& identifier() const { return identifier_; }
   HydraulicIdentifier& identifier() { return identifier_; }
@@ -42,8 +53,11 @@ class IdentificationPipeline {
   void predictSpool(StreamSample* valve);
 
   UniformResampler resampler_;
+  VelocityFromPosition velocity_;
   HydraulicIdentifier identifier_;
-  std::vector<GridSample> grid_;
+  std::vector<GridSample> resampled_, grid_;
+  std::array<double, kInputStreamCount> delays_;
+  double sample_period_;
   StepCallback on_step_;
   GridCallback on_grid_;
   std::uint64_t messages_ = 0;

@@ -20,11 +20,13 @@ struct RegionError {
 };
 
 /// Stroke phase and cycle of every grid sample: phases from StrokePhaseClassifier, a new cycle at every
-/// impact (the ram hitting the cushion). Samples before the first impact belong to cycle -1.
+/// impact (the ram hitting the cushion). Samples before the first impact belong to cycle -1 (a recording
+/// that starts mid-stroke). A cycle is complete at the next impact, or, for the recording's last one, once
+/// the return stroke has brought the cushion back to within 5 % of its stroke from where the ram met it.
 struct StrokeSegmentation {
   std::vector<StrokePhase> phase;
   std::vector<int> cycle;
-  int cycles = 0;  ///< complete cycles: from one impact to the next
+  int cycles = 0;  ///< complete cycles (indices 0 ... cycles-1)
 };
 StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid);
 

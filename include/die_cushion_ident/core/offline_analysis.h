@@ -11,6 +11,7 @@
 #include "die_cushion_ident/core/identification_pipeline.h"
 #include "die_cushion_ident/core/model_assessment.h"
 #include "die_cushion_ident/core/recorded_sweep.h"
+#include "die_cushion_ident/core/topic_delay_estimator.h"
 
 namespace die_cushion_ident {
 
@@ -37,8 +38,22 @@ struct OfflineResult {
   std::optional<RecordedSweep> valve;  ///< present when the recording holds a sine sweep
   std::array<StreamHealth, kInputStreamCount> health;
   std::uint64_t restarts = 0;
+  /// [s] the clock offsets subtracted from each topic's stamps, and where they came from.
+  std::array<double, kInputStreamCount> topic_delays = {0.0, 0.0, 0.0};
+  std::string topic_delays_source = "none";  ///< "configured", "estimated" or "none" (estimate not usable)
+  std::optional<TopicDelayEstimate> delay_estimate;  ///< when estimated from the data
+  std::uint64_t derived_velocity_samples = 0;       ///< grid samples whose velocity came from the position
   std::vector<std::string> warnings;
+  /// Part of the analysis could not run (no complete stroke, no usable sample, an implausible parameter):
+  /// the reasons are in `warnings`; analyze_bag exits with 5.
+  bool partial = false;
 };
+
+/// Each parameter outside its physical range (ParameterInfo bounds) by more than `sigmas` standard
+/// deviations, in words; empty when all are plausible. Those outside but within `sigmas` of the range go to
+/// `uncertain` (may be null). A bulk modulus or flow gain at or below zero is always implausible.
+std::vector<std::string> implausibleParameters(const HydraulicModel& model, const HydraulicEstimate& estimate,
+                                               double sigmas, std::vector<std::string>* uncertain);
 
 /// The offline analysis on the same core as the node: messages in, the pipeline's uniform samples kept, and
 /// at the end the whole-recording fit, the free-run comparison, the effect ranking and the valve sweep.
@@ -47,6 +62,9 @@ class OfflineAnalysis {
   explicit OfflineAnalysis(const IdentificationConfig& config);
 
   void push(InputStream stream, const StreamSample& sample);
+  /// Ends the input and estimates the topics' clock offsets from the grid (TopicDelayEstimator). A caller
+  /// that finds them significant analyses the recording again with config.topic_delays set.
+  TopicDelayEstimate estimateTopicDelays();
   /// Runs the analyses; `progress` (may be empty) is told what runs.
   OfflineResult finish(const std::function<void(const std::string&)>& progress = {});
 
@@ -60,6 +78,7 @@ class OfflineAnalysis {
   std::vector<ValveSample> valve_;
   std::vector<EstimateSample> estimates_;
   std::uint64_t messages_ = 0;
+  bool flushed_ = false;
 };
 
 }  // namespace die_cushion_ident

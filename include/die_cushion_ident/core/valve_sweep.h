@@ -81,6 +81,12 @@ class ValveSweep {
   /// The command to apply at `now` while running; after the sweep ends, the offset exactly once (so the
   /// valve returns to it); otherwise nothing.
   std::optional<double> command(double now);
+  /// The sine of the frequency being measured at time `t` (no state change), for a continuous signal
+  /// generator between commands; the offset when no frequency is running.
+  double commandAt(double t) const;
+  /// How long the amplifier holds each command [s] (0 = a continuous command; NaN, the default, = the
+  /// command period). The measured response is divided by the hold's response.
+  void setCommandHold(double seconds) { command_hold_ = seconds; }
   void abort(const std::string& reason);
 
   State state() const { return state_; }
@@ -112,6 +118,7 @@ class ValveSweep {
   std::vector<FrequencyResponsePoint> points_;
   ServoValveFit fit_;
   bool offset_owed_ = false;
+  double command_hold_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 const char* sweepStateName(ValveSweep::State state);

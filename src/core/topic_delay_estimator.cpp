@@ -1,0 +1,224 @@
+#include "die_cushion_ident/core/topic_delay_estimator.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace die_cushion_ident {
+
+namespace {
+
+constexpr int kRegressors = 6;
+// Samples on each side of the zero-phase smoothing (moving average) and of the central difference.
+constexpr int kSmoothing = 4;
+constexpr int kDifference = 2;
+// The fit uses at most this many excited samples (about four minutes of strokes): the offset is constant,
+// and more samples only cost time.
+constexpr std::size_t kMaxSamples = 120000;
+// [s] spacing of the coarse map over both offsets; the cost's basin is wider (impact and valve transients
+// last tens of milliseconds).
+constexpr double kCoarseStep = 0.004;
+
+// The grid's signals as plain arrays, smoothed alike; NaN where a sample is unusable.
+struct Signals {
+  std::vector<double> p, dp, x, v, y;
+};
+
+std::vector<double> smoothed(const std::vector<double>& in) {
+  std::vector<double> out(in.size(), std::numeric_limits<double>::quiet_NaN());
+  const int n = static_cast<int>(in.size());
+  for (int i = kSmoothing; i + kSmoothing < n; ++i) {
+    double sum = 0.0;
+    for (int j = -kSmoothing; j <= kSmoothing; ++j) sum += in[i + j];  // NaN spreads: a gap stays a gap
+    out[i] = sum / (2 * kSmoothing + 1);
+  }
+  return out;
+}
+
+Signals prepare(const std::vector<GridSample>& grid, double dt) {
+  const std::size_t n = grid.size();
+  std::vector<double> p(n), x(n), v(n), y(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const GridSample& g = grid[i];
+    // A restart of the time base is a gap for the smoothing and the shifts.
+    const bool ok = g.complete && !g.discontinuity;
+    p[i] = ok ? g.p : NAN;
+    x[i] = ok ? g.x : NAN;
+    v[i] = ok ? g.v : NAN;
+    y[i] = ok ? g.y : NAN;
+  }
+  Signals s{smoothed(p), {}, smoothed(x), smoothed(v), smoothed(y)};
+  s.dp.assign(n, std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = kDifference; i + kDifference < n; ++i)
+    s.dp[i] = (s.p[i + kDifference] - s.p[i - kDifference]) / (2 * kDifference * dt);
+  return s;
+}
+
+// Channel value at sample i + shift (shift in samples, fractional: linear interpolation).
+double at(const std::vector<double>& c, std::size_t i, double shift) {
+  const double position = static_cast<double>(i) + shift;
+  const double lower = std::floor(position);
+  if (lower < 0.0 || lower + 1.0 >= static_cast<double>(c.size())) return NAN;
+  const std::size_t k = static_cast<std::size_t>(lower);
+  const double w = position - lower;
+  return (1.0 - w) * c[k] + w * c[k + 1];
+}
+
+class BalanceCost {
+ public:
+  BalanceCost(const Signals& s, const IdentificationConfig& config, std::vector<std::size_t> rows)
+      : s_(s), config_(config), rows_(std::move(rows)) {}
+
+  // Equation-error RMS of the free least-squares fit with position and valve channels shifted [samples].
+  double operator()(double position_shift, double valve_shift) const {
+    Eigen::Matrix<double, kRegressors, kRegressors> gram = Eigen::Matrix<double, kRegressors, kRegressors>::Zero();
+    Eigen::Matrix<double, kRegressors, 1> cross = Eigen::Matrix<double, kRegressors, 1>::Zero();
+    double zz = 0.0;
+    int n = 0;
+    const CylinderGeometry& geometry = config_.geometry;
+    Eigen::Matrix<double, kRegressors, 1> phi;
+    for (std::size_t i : rows_) {
+      const double p = s_.p[i], dp = s_.dp[i];
+      const double x = at(s_.x, i, position_shift), v = at(s_.v, i, position_shift);
+      const double y = at(s_.y, i, valve_shift);
+      if (!std::isfinite(x) || !std::isfinite(v) || !std::isfinite(y)) continue;
+      const double drop = y > 0.0 ? std::max(p, 0.0) : std::max(geometry.supply_pressure - p, 0.0);
+      const double air = kAtmosphericPressure / ((p + kAtmosphericPressure) * (p + kAtmosphericPressure));
+      phi << geometry.piston_area * (geometry.stroke_length - x) * dp, dp, dp * air, y * std::sqrt(drop), p,
+          1.0;
+      const double z = geometry.piston_area * v;
+      gram.noalias() += phi * phi.transpose();
+      cross.noalias() += phi * z;
+      zz += z * z;
+      ++n;
+    }
+    if (n < kRegressors * 10) return std::numeric_limits<double>::infinity();
+    // Columns differ by many orders of magnitude: solve the equilibrated normal equations.
+    Eigen::Matrix<double, kRegressors, 1> scale;
+    for (int j = 0; j < kRegressors; ++j) scale(j) = gram(j, j) > 0.0 ? 1.0 / std::sqrt(gram(j, j)) : 1.0;
+    const Eigen::Matrix<double, kRegressors, kRegressors> normalised =
+        scale.asDiagonal() * gram * scale.asDiagonal();
+    const Eigen::Matrix<double, kRegressors, 1> b = scale.cwiseProduct(cross);
+    const Eigen::Matrix<double, kRegressors, 1> c = normalised.ldlt().solve(b);
+    const double residual = zz - c.dot(b);
+    return std::sqrt(std::max(residual, 0.0) / n);
+  }
+  int rows() const { return static_cast<int>(rows_.size()); }
+
+ private:
+  const Signals& s_;
+  const IdentificationConfig& config_;
+  std::vector<std::size_t> rows_;
+};
+
+struct LineSearch {
+  double best = 0.0;        // [samples]
+  double resolution = 0.0;  // [samples]
+};
+
+// Minimum of cost(shift) over [-range, range] samples: whole samples, then quarter samples around the best,
+// then a parabola through the best three.
+template <typename Cost>
+LineSearch searchShift(const Cost& cost, double range) {
+  double best = 0.0, best_cost = cost(0.0);
+  for (double shift = -std::floor(range); shift <= range; shift += 1.0) {
+    const double c = cost(shift);
+    if (c < best_cost) {
+      best_cost = c;
+      best = shift;
+    }
+  }
+  const double coarse = best;
+  for (double shift = coarse - 0.75; shift <= coarse + 0.75 + 1e-9; shift += 0.25) {
+    const double c = cost(shift);
+    if (c < best_cost) {
+      best_cost = c;
+      best = shift;
+    }
+  }
+  const double f_minus = cost(best - 0.25), f_plus = cost(best + 0.25);
+  const double curvature = f_minus - 2.0 * best_cost + f_plus;
+  LineSearch result;
+  result.best = best;
+  if (curvature > 0.0 && std::isfinite(curvature)) {
+    result.best = best + 0.25 * 0.5 * (f_minus - f_plus) / curvature;
+    // Where the cost rises by 1 % of itself: a shift the fit can tell apart.
+    const double a = curvature / (2.0 * 0.25 * 0.25);
+    result.resolution = std::sqrt(0.01 * best_cost / a);
+  } else {
+    result.resolution = range;
+  }
+  return result;
+}
+
+}  // namespace
+
+bool TopicDelayEstimate::significant(double sample_period) const {
+  if (!valid) return false;
+  for (double d : delays) {
+    if (std::abs(d) > 0.25 * sample_period) return true;
+  }
+  return false;
+}
+
+TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config) {
+  TopicDelayEstimate e;
+  const double dt = config.resampler.sample_period;
+  const Signals s = prepare(grid, dt);
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 0; i < grid.size() && rows.size() < kMaxSamples; ++i) {
+    const double p = s.p[i], dp = s.dp[i], v = s.v[i], y = s.y[i];
+    if (!std::isfinite(p) || !std::isfinite(dp) || !std::isfinite(v) || !std::isfinite(y)) continue;
+    if (p < config.min_pressure || std::abs(y) > config.max_spool_opening) continue;
+    if (std::abs(v) < config.min_velocity && std::abs(dp) < config.min_pressure_rate) continue;
+    rows.push_back(i);
+  }
+  e.samples = static_cast<int>(rows.size());
+  if (rows.size() < 2000) {
+    e.message = "too few samples with the cushion moving or the pressure changing (" +
+                std::to_string(rows.size()) + ") to estimate the topics' clock offsets";
+    return e;
+  }
+  // A coarse map over both offsets on every eighth row finds the basin (the offsets interact: a late
+  // pressure looks like early position and valve), then coordinate descent along position, valve and both
+  // together refines it on all rows.
+  std::vector<std::size_t> coarse_rows;
+  for (std::size_t i = 0; i < rows.size(); i += 8) coarse_rows.push_back(rows[i]);
+  const BalanceCost coarse(s, config, std::move(coarse_rows));
+  const BalanceCost cost(s, config, std::move(rows));
+  const double search_range = config.topic_delay_search / dt;
+  const double step = std::max(1.0, std::round(kCoarseStep / dt));
+  double position = 0.0, valve = 0.0, best = coarse(0.0, 0.0);
+  for (double xs = -std::floor(search_range / step) * step; xs <= search_range; xs += step) {
+    for (double vs = -std::floor(search_range / step) * step; vs <= search_range; vs += step) {
+      const double c = coarse(xs, vs);
+      if (c < best) {
+        best = c;
+        position = xs;
+        valve = vs;
+      }
+    }
+  }
+  LineSearch position_search, valve_search;
+  const double refine = step + 1.0;
+  for (int round = 0; round < 3; ++round) {
+    const LineSearch both = searchShift([&](double shift) { return cost(position + shift, valve + shift); }, refine);
+    position += both.best;
+    valve += both.best;
+    position_search = searchShift([&](double shift) { return cost(position + shift, valve); }, refine);
+    position += position_search.best;
+    valve_search = searchShift([&](double shift) { return cost(position, valve + shift); }, refine);
+    valve += valve_search.best;
+  }
+  constexpr int kX = static_cast<int>(InputStream::kPosition), kV = static_cast<int>(InputStream::kValve);
+  e.delays[kX] = position * dt;
+  e.delays[kV] = valve * dt;
+  e.resolution[kX] = position_search.resolution * dt;
+  e.resolution[kV] = valve_search.resolution * dt;
+  e.valid = std::isfinite(e.delays[kX]) && std::isfinite(e.delays[kV]);
+  if (!e.valid) e.message = "the balance could not be fitted at any offset";
+  return e;
+}
+
+}  // namespace die_cushion_ident
