@@ -79,15 +79,23 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
   s.cycle.resize(grid.size());
   StrokePhaseClassifier classifier;
   int cycle = -1;
+  // A recording may start mid-stroke: drawing seen first is not an impact, only drawing after a rest of a
+  // few samples is (the classifier calls its very first sample rest, whatever the cushion does).
+  constexpr int kMinRestSamples = 5;
   StrokePhase previous = StrokePhase::kRest;
+  int rest_samples = 0;
   // The last cycle counts when it is complete: the cushion went back up to where the ram met it.
   bool returned = false;
   double impact_x = 0.0, deepest = 0.0, last_x = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t i = 0; i < grid.size(); ++i) {
-    if (grid[i].discontinuity) classifier.reset();
+    if (grid[i].discontinuity) {
+      classifier.reset();
+      rest_samples = 0;
+    }
     const StrokePhase phase = classifier.classify(grid[i]);
-    const bool impact =
-        phase == StrokePhase::kImpact || (phase == StrokePhase::kDrawing && previous == StrokePhase::kRest);
+    const bool after_rest = previous == StrokePhase::kRest && rest_samples >= kMinRestSamples;
+    const bool impact = phase == StrokePhase::kImpact || (phase == StrokePhase::kDrawing && after_rest);
+    rest_samples = phase == StrokePhase::kRest ? rest_samples + 1 : 0;
     if (impact && previous != StrokePhase::kImpact && previous != StrokePhase::kDrawing) {
       ++cycle;
       returned = false;

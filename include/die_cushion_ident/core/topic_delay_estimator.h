@@ -26,7 +26,8 @@ struct TopicDelayEstimate {
 /// Estimates constant clock offsets between the pressure, position and valve topics from the physics: the
 /// volume balance
 ///   A v = (A (s - x) / K') dp/dt + (V_dead / K') dp/dt + c_air dp/dt p_atm/(p + p_atm)^2 + K_v f(y, p)
-///         + G_L p + q_0
+///         + c_overlap sign(y) sqrt(dp_valve) + c_tank y / sqrt(p) + G_L p + q_0
+/// (every library effect to first order)
 /// holds at every instant only when the signals line up in time. For each candidate offset tau of one topic
 /// (its channels read at t + tau) the balance is fitted by linear least squares (the coefficients are free,
 /// so no identified model is needed) and the equation-error RMS is the cost; the offset is the minimum,
