@@ -125,8 +125,30 @@ TEST(CustomFlowEffect, ParsesNameEqualsExpression) {
 }
 
 TEST(CustomFlowEffect, NonFiniteValuesDoNotLeakIntoTheEstimator) {
-  CustomFlowEffect e("inverse", "1 / x");
+  // Finite everywhere the expression is probed, infinite at x = 0.05 m: the rare point reads as no flow.
+  CustomFlowEffect e("inverse", "1 / (x - 0.05)");
   HydraulicSignals s;
-  s.x = 0.0;
+  s.x = 0.05;
   EXPECT_DOUBLE_EQ(e.outflowPerUnit(s), 0.0);
+}
+
+// Terms that would be reported as "fitted" at their initial value, or wreck the estimator, are refused at
+// once with the point of the operating range that shows the problem (hostile-input review).
+TEST(CustomFlowEffect, TermsThatCannotBeAFlowAreRefusedWithTheReason) {
+  const struct {
+    const char* expression;
+    const char* reason;
+  } cases[] = {{"1/(p-p)", "evaluates to"},         {"log(0)", "evaluates to"},
+               {"exp(p)", "evaluates to inf"},       {"0", "0 everywhere"},
+               {"(p>100e5)?1e300:0", "evaluates to 1e+300"}, {"1/x", "evaluates to inf at p = 0 Pa"}};
+  for (const auto& c : cases) {
+    try {
+      CustomFlowEffect e("bad", c.expression);
+      ADD_FAILURE() << c.expression << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(c.reason), std::string::npos) << c.expression << ": " << e.what();
+    }
+  }
+  EXPECT_NO_THROW(CustomFlowEffect("constant", "1")) << "a constant flow is a model (q0), not a fault";
+  EXPECT_NO_THROW(CustomFlowEffect("compressibility", "p*dp"));
 }

@@ -63,5 +63,31 @@ TEST(Recovery, APositionTopicSilentForTwoSecondsIsBridgedWithoutDamage) {
   expectConverged(pipeline.identifier().estimate(), plant, "after the silent topic");
 }
 
+// Hostile-input review: 20 pressure messages of 1e300 Pa left every std and the comparison NaN for good,
+// and one message stamped 100 s in the past (or 1000 s ahead) each second kept restarting everything.
+TEST(Recovery, AbsurdValuesAndWildStampsNeitherPoisonNorRestartTheEstimator) {
+  const auto config = randomPlant(34);
+  DieCushionSimulator plant(config);
+  IdentificationPipeline pipeline(configFor(config));
+  testing::feed(plant, pipeline, 2 * plant.program().cycleDuration());
+  std::vector<SimulatedMeasurement> messages;
+  plant.run(3 * plant.program().cycleDuration(), &messages);
+  int pressure = 0;
+  for (const auto& m : messages) {
+    StreamSample sample = m.sample;
+    if (m.stream == InputStream::kPressure && ++pressure % 1000 < 20) sample.first = 1e300;  // bursts
+    if (m.stream == InputStream::kPosition && pressure % 1000 == 500) sample.stamp -= 100.0;  // wild stamps
+    if (m.stream == InputStream::kValve && pressure % 1000 == 700) sample.stamp += 1000.0;
+    pipeline.push(m.stream, sample);
+  }
+  EXPECT_EQ(pipeline.resampler().restarts(), 0u);
+  EXPECT_GT(pipeline.resampler().health(InputStream::kPressure).implausible, 100u);
+  EXPECT_GT(pipeline.resampler().health(InputStream::kPosition).wild_stamps, 0u);
+  const HydraulicEstimate e = pipeline.identifier().estimate();
+  EXPECT_TRUE(std::isfinite(e.equation_error_rms));
+  for (const auto& p : e.parameters) EXPECT_TRUE(std::isfinite(p.value) && std::isfinite(p.std)) << p.name;
+  expectConverged(e, plant, "through bursts of 1e300 Pa and wild stamps");
+}
+
 }  // namespace
 }  // namespace die_cushion_ident

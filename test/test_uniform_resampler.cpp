@@ -123,12 +123,15 @@ TEST(UniformResampler, ABackwardJumpRestartsTheGrid) {
   auto first = feedLinear(r, 100.0, 101.0, 1000.0);
   ASSERT_FALSE(first.empty());
   std::vector<GridSample> out;
-  EXPECT_EQ(r.push(InputStream::kPressure, {10.0, 1.0, kNaN}, &out),
-            UniformResampler::PushResult::kRestarted);
+  // One message on the new time base is held; the other topics confirm the jump (a bag played again).
+  EXPECT_EQ(r.push(InputStream::kPressure, {10.0, 1.0, kNaN}, &out), UniformResampler::PushResult::kHeld);
+  EXPECT_EQ(r.push(InputStream::kPosition, {10.0, 1.0, kNaN}, &out), UniformResampler::PushResult::kHeld);
+  EXPECT_EQ(r.push(InputStream::kValve, {10.0, 1.0, kNaN}, &out), UniformResampler::PushResult::kRestarted);
   auto second = feedLinear(r, 10.001, 11.0, 1000.0);
   ASSERT_FALSE(second.empty());
-  EXPECT_TRUE(second.front().discontinuity) << "downstream filters must be told to start over";
-  EXPECT_LT(second.front().t, 10.01);
+  const GridSample& restarted = out.empty() ? second.front() : out.front();
+  EXPECT_TRUE(restarted.discontinuity) << "downstream filters must be told to start over";
+  EXPECT_LT(restarted.t, 10.01);
   EXPECT_EQ(r.restarts(), 1u);
 }
 
@@ -161,4 +164,74 @@ TEST(UniformResampler, FlushEmitsWhatTheStreamsCover) {
   r.flush(&out);
   EXPECT_GE(out.size(), before);
   EXPECT_LE(out.back().t, 0.1);
+}
+
+// A single wild stamp must not restart the identification; a clock that jumps for one topic only is that
+// topic's fault, not the others' (hostile-input review: one message 100 s in the past, or 1000 s ahead,
+// restarted everything and blamed the healthy topics).
+TEST(UniformResampler, ASingleWildStampIsRejectedNotARestart) {
+  for (const double wild : {-100.0, 1000.0}) {
+    UniformResampler r({});
+    auto before = feedLinear(r, 100.0, 101.0, 1000.0);
+    std::vector<GridSample> out;
+    EXPECT_EQ(r.push(InputStream::kPressure, {101.0 + wild, 1.0, kNaN}, &out),
+              UniformResampler::PushResult::kHeld);
+    auto after = feedLinear(r, 101.0, 102.0, 1000.0);
+    EXPECT_EQ(r.restarts(), 0u) << wild;
+    EXPECT_EQ(r.health(InputStream::kPressure).wild_stamps, 1u) << wild;
+    EXPECT_NEAR(r.health(InputStream::kPressure).last_wild_offset, wild, 0.01);
+    ASSERT_GT(after.size(), 400u) << "the grid goes on";
+    for (const auto& g : after) EXPECT_FALSE(g.discontinuity);
+    EXPECT_NEAR(r.health(InputStream::kPressure).rate(), 1000.0, 1.0) << "the wild stamp is no interval";
+  }
+}
+
+TEST(UniformResampler, OneTopicStampedAheadForSecondsIsRejectedAndNamed) {
+  UniformResampler r({});
+  feedLinear(r, 100.0, 101.0, 1000.0);
+  std::vector<GridSample> out;
+  for (double t = 101.0; t < 106.0; t += 0.001) {
+    r.push(InputStream::kPressure, {t, 1e6, kNaN}, &out);
+    r.push(InputStream::kPosition, {t + 1000.0, 0.1, 0.1}, &out);  // its clock is 1000 s ahead
+    r.push(InputStream::kValve, {t, 5.0, 0.5}, &out);
+  }
+  EXPECT_EQ(r.restarts(), 0u);
+  EXPECT_GT(r.health(InputStream::kPosition).wild_stamps, 4900u);
+  EXPECT_EQ(r.health(InputStream::kPressure).wild_stamps, 0u);
+  EXPECT_TRUE(r.health(InputStream::kPosition).stale);
+  EXPECT_FALSE(r.health(InputStream::kPressure).stale) << "the healthy topics are not blamed";
+  EXPECT_GT(out.size(), 2000u) << "the grid goes on with the healthy topics";
+  const auto back = feedLinear(r, 106.0, 107.0, 1000.0);  // the clock is right again
+  EXPECT_FALSE(r.health(InputStream::kPosition).stale);
+  ASSERT_FALSE(back.empty());
+  EXPECT_TRUE(back.back().complete);
+}
+
+TEST(UniformResampler, APauseOfAllTopicsJumpsTheGridWithoutARestart) {
+  UniformResampler r({});
+  feedLinear(r, 0.0, 1.0, 1000.0);
+  const auto after = feedLinear(r, 30.0, 31.0, 1000.0);
+  EXPECT_EQ(r.restarts(), 0u);
+  ASSERT_FALSE(after.empty());
+  EXPECT_TRUE(after.front().discontinuity);
+  EXPECT_NEAR(r.health(InputStream::kPressure).rate(), 1000.0, 1.0) << "a pause is a gap, not an interval";
+  EXPECT_EQ(r.health(InputStream::kPressure).wild_stamps, 0u);
+}
+
+TEST(UniformResampler, ImplausibleValuesAreRejectedLikeNonFiniteOnes) {
+  UniformResampler::Config c;
+  c.plausible[0].min_first = -2e5;
+  c.plausible[0].max_first = 240e5;
+  c.plausible[1].max_abs_second = 10.0;
+  UniformResampler r(c);
+  std::vector<GridSample> out;
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.0, 1e300, kNaN}, &out), UniformResampler::PushResult::kImplausible);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.0, 1e9, kNaN}, &out), UniformResampler::PushResult::kImplausible);
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.0, -1e6, kNaN}, &out), UniformResampler::PushResult::kImplausible);
+  EXPECT_EQ(r.push(InputStream::kPosition, {0.0, 0.1, 1e300}, &out), UniformResampler::PushResult::kImplausible);
+  EXPECT_EQ(r.push(InputStream::kPosition, {0.0, 0.1, kNaN}, &out), UniformResampler::PushResult::kAccepted)
+      << "an unmeasured velocity is no implausible one";
+  EXPECT_EQ(r.push(InputStream::kPressure, {0.0, 100e5, kNaN}, &out), UniformResampler::PushResult::kAccepted);
+  EXPECT_EQ(r.health(InputStream::kPressure).implausible, 3u);
+  EXPECT_EQ(r.health(InputStream::kPosition).implausible, 1u);
 }

@@ -118,6 +118,12 @@ bool HydraulicIdentifier::identificationStep() {
   const int n = model_.parameterCount();
   ParameterVector phi(n);
   for (int j = 0; j < n; ++j) phi(j) = row_.phi[j] * scale_(j) / flow_scale_;
+  // A custom term can still explode off the probed range; such a row would poison the covariance for good.
+  constexpr double kLargestColumn = 1e100;
+  if (!phi.allFinite() || phi.cwiseAbs().maxCoeff() > kLargestColumn || !std::isfinite(row_.z)) {
+    ++skipped_invalid_;
+    return false;
+  }
   const auto status = rls_->update(phi, row_.z / flow_scale_);
   if (status != RecursiveLeastSquares::UpdateStatus::kUpdated) return false;
 

@@ -29,6 +29,23 @@ std::array<double, kInputStreamCount> IdentificationConfig::appliedTopicDelays()
   return applied;
 }
 
+UniformResampler::Config IdentificationConfig::resamplerConfig() const {
+  UniformResampler::Config c = resampler;
+  auto& pressure = c.plausible[static_cast<int>(InputStream::kPressure)];
+  pressure.min_first = min_plausible_pressure;
+  pressure.max_first =
+      std::isnan(max_plausible_pressure) ? 2.0 * geometry.supply_pressure : max_plausible_pressure;
+  auto& position = c.plausible[static_cast<int>(InputStream::kPosition)];
+  position.min_first = -plausible_stroke_margin * geometry.stroke_length;
+  position.max_first = (1.0 + plausible_stroke_margin) * geometry.stroke_length;
+  position.max_abs_second = max_plausible_velocity;
+  auto& valve = c.plausible[static_cast<int>(InputStream::kValve)];
+  valve.min_first = -max_plausible_voltage;
+  valve.max_first = max_plausible_voltage;
+  valve.max_abs_second = 1.5;
+  return c;
+}
+
 bool IdentificationConfig::topicDelaysSet() const {
   for (double d : topic_delays) {
     if (!std::isnan(d)) return true;
@@ -75,6 +92,11 @@ const NumericKey kNumericKeys[] = {
     {"topic_delays/position", [](IdentificationConfig& c) { return &c.topic_delays[1]; }},
     {"topic_delays/valve", [](IdentificationConfig& c) { return &c.topic_delays[2]; }},
     {"topic_delay_search", [](IdentificationConfig& c) { return &c.topic_delay_search; }},
+    {"min_plausible_pressure", [](IdentificationConfig& c) { return &c.min_plausible_pressure; }},
+    {"max_plausible_pressure", [](IdentificationConfig& c) { return &c.max_plausible_pressure; }},
+    {"plausible_stroke_margin", [](IdentificationConfig& c) { return &c.plausible_stroke_margin; }},
+    {"max_plausible_velocity", [](IdentificationConfig& c) { return &c.max_plausible_velocity; }},
+    {"max_plausible_voltage", [](IdentificationConfig& c) { return &c.max_plausible_voltage; }},
 };
 
 class Checker {
@@ -164,6 +186,12 @@ std::vector<std::string> IdentificationConfig::validate() const {
   }
   c.range("topic_delay_search", topic_delay_search, 0.0, 0.5, "s");
   c.range("velocity_window", velocity_window, 2.0 * resampler.sample_period, 1.0, "s");
+  c.range("min_plausible_pressure", min_plausible_pressure, -1e7, 1e9, "Pa");
+  if (!std::isnan(max_plausible_pressure))
+    c.range("max_plausible_pressure", max_plausible_pressure, std::max(min_plausible_pressure, 0.0), 1e10, "Pa", true);
+  c.range("plausible_stroke_margin", plausible_stroke_margin, 0.0, 10.0, "");
+  c.range("max_plausible_velocity", max_plausible_velocity, 0.0, 1000.0, "m/s", true);
+  c.range("max_plausible_voltage", max_plausible_voltage, 0.0, 1e4, "V", true);
   try {
     const HydraulicModel model = HydraulicModel::fromNames(geometry, effects, custom_effects);
     for (const auto& [name, value] : initial_parameters) {

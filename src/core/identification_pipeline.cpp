@@ -5,7 +5,7 @@
 namespace die_cushion_ident {
 
 IdentificationPipeline::IdentificationPipeline(const IdentificationConfig& config)
-    : resampler_(config.resampler),
+    : resampler_(config.resamplerConfig()),
       velocity_(config.velocityHalfWidth()),
       identifier_(config),
       delays_(config.appliedTopicDelays()),

@@ -3,6 +3,7 @@
 #include <climits>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace die_cushion_ident {
 
@@ -82,6 +83,27 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
       HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
   r.effects = model.effectNames();
 
+  const auto& bounds = config_.resamplerConfig().plausible;
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    const StreamHealth& h = r.health[s];
+    const char* name = inputStreamName(static_cast<InputStream>(s));
+    if (h.implausible > 0) {
+      char text[320];
+      std::snprintf(text, sizeof(text),
+                    "%llu %s messages outside the physically plausible range [%.4g, %.4g] (and |second| <= %g) "
+                    "were rejected like NaN ones (see the plausible_* configuration keys)",
+                    static_cast<unsigned long long>(h.implausible), name, bounds[s].min_first, bounds[s].max_first,
+                    bounds[s].max_abs_second);
+      r.warnings.push_back(text);
+    }
+    if (h.wild_stamps > 0) {
+      char text[256];
+      std::snprintf(text, sizeof(text),
+                    "%llu %s messages had stamps far off the other topics' (the last %+.4g s) and were rejected",
+                    static_cast<unsigned long long>(h.wild_stamps), name, h.last_wild_offset);
+      r.warnings.push_back(text);
+    }
+  }
   // Every reason a part of the analysis could not run, in words and with what to do.
   const auto cannot = [&r](const std::string& why) {
     r.warnings.push_back(why);
@@ -112,7 +134,18 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     r.strokes = segmentStrokes(grid_);
     tell("fitting the model to the whole recording");
     r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
-    if (r.model.updates == 0) {
+    double highest = -std::numeric_limits<double>::infinity();
+    for (const GridSample& g : grid_) {
+      if (std::isfinite(g.p)) highest = std::max(highest, g.p);
+    }
+    if (r.model.updates == 0 && highest < config_.min_pressure) {
+      char text[320];
+      std::snprintf(text, sizeof(text),
+                    "the pressure never exceeds min_pressure (%.3g Pa; highest %.4g): no parameters identified. "
+                    "Is it recorded in bar or psi? FluidPressure.fluid_pressure is in Pa",
+                    config_.min_pressure, highest);
+      cannot(text);
+    } else if (r.model.updates == 0) {
       cannot("the recording never excites the hydraulics (no press stroke with the pressure above "
              "min_pressure): no parameters identified");
     } else {

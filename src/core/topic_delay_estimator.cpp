@@ -16,9 +16,9 @@ constexpr int kRegressors = 8;
 // The timing matters that much: 0.1 ms of position timing is 20 um of stroke at 0.2 m/s, 0.8 bar.
 constexpr int kSmoothing = 2;
 constexpr int kDifference = 1;
-// The fit uses at most this many excited samples (about four minutes of strokes): the offset is constant,
+// The fit uses at most this many excited samples (two minutes, some 60 strokes): the offset is constant,
 // and more samples only cost time.
-constexpr std::size_t kMaxSamples = 120000;
+constexpr std::size_t kMaxSamples = 60000;
 // [s] spacing of the coarse map over both offsets; the cost's basin is wider (impact and valve transients
 // last tens of milliseconds).
 constexpr double kCoarseStep = 0.004;
@@ -39,8 +39,7 @@ std::vector<double> smoothed(const std::vector<double>& in) {
   return out;
 }
 
-Signals prepare(const std::vector<GridSample>& grid, double dt) {
-  const std::size_t n = grid.size();
+Signals prepare(const std::vector<GridSample>& grid, std::size_t n, double dt) {
   std::vector<double> p(n), x(n), v(n), y(n);
   for (std::size_t i = 0; i < n; ++i) {
     const GridSample& g = grid[i];
@@ -95,12 +94,13 @@ class BalanceCost {
       phi << geometry.piston_area * (geometry.stroke_length - x) * dp, dp, dp * air, y * root, sign * root,
           y > 0.0 && p > 0.0 ? y / std::sqrt(p) : 0.0, p, 1.0;
       const double z = geometry.piston_area * v;
-      gram.noalias() += phi * phi.transpose();
+      gram.selfadjointView<Eigen::Lower>().rankUpdate(phi);
       cross.noalias() += phi * z;
       zz += z * z;
       ++n;
     }
     if (n < kRegressors * 10) return std::numeric_limits<double>::infinity();
+    gram.template triangularView<Eigen::StrictlyUpper>() = gram.transpose();
     // Columns differ by many orders of magnitude: solve the equilibrated normal equations.
     Eigen::Matrix<double, kRegressors, 1> scale;
     for (int j = 0; j < kRegressors; ++j) scale(j) = gram(j, j) > 0.0 ? 1.0 / std::sqrt(gram(j, j)) : 1.0;
@@ -172,9 +172,16 @@ bool TopicDelayEstimate::significant(double sample_period) const {
 TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config) {
   TopicDelayEstimate e;
   const double dt = config.resampler.sample_period;
-  const Signals s = prepare(grid, dt);
+  // Only the stretch that holds enough usable samples is prepared: an hour's grid is 1.8 M samples, the
+  // estimate needs a few minutes of strokes.
+  std::size_t end = 0, usable = 0;
+  while (end < grid.size() && usable < 3 * kMaxSamples) {
+    const GridSample& g = grid[end++];
+    if (g.complete && g.p >= config.min_pressure && std::abs(g.y) <= config.max_spool_opening) ++usable;
+  }
+  const Signals s = prepare(grid, end, dt);
   std::vector<std::size_t> rows;
-  for (std::size_t i = 0; i < grid.size() && rows.size() < kMaxSamples; ++i) {
+  for (std::size_t i = 0; i < end && rows.size() < kMaxSamples; ++i) {
     const double p = s.p[i], dp = s.dp[i], v = s.v[i], y = s.y[i];
     if (!std::isfinite(p) || !std::isfinite(dp) || !std::isfinite(v) || !std::isfinite(y)) continue;
     if (p < config.min_pressure || std::abs(y) > config.max_spool_opening) continue;
@@ -187,11 +194,11 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
                 std::to_string(rows.size()) + ") to estimate the topics' clock offsets";
     return e;
   }
-  // A coarse map over both offsets on every eighth row finds the basin (the offsets interact: a late
+  // A coarse map over both offsets on every 16th row finds the basin (the offsets interact: a late
   // pressure looks like early position and valve), then coordinate descent along position, valve and both
   // together refines it on all rows.
   std::vector<std::size_t> coarse_rows;
-  for (std::size_t i = 0; i < rows.size(); i += 8) coarse_rows.push_back(rows[i]);
+  for (std::size_t i = 0; i < rows.size(); i += 16) coarse_rows.push_back(rows[i]);
   const BalanceCost coarse(s, config, std::move(coarse_rows));
   const BalanceCost cost(s, config, std::move(rows));
   const double search_range = config.topic_delay_search / dt;
@@ -208,8 +215,8 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
     }
   }
   LineSearch position_search, valve_search;
-  const double refine = step + 1.0;
   for (int round = 0; round < 3; ++round) {
+    const double refine = round == 0 ? step + 1.0 : 1.0;  // later rounds only polish
     const LineSearch both = searchShift([&](double shift) { return cost(position + shift, valve + shift); }, refine);
     position += both.best;
     valve += both.best;

@@ -44,6 +44,14 @@ void VelocityFromPosition::reset() {
 }
 
 void VelocityFromPosition::push(const GridSample& sample, std::vector<GridSample>* out) {
+  if (next_ == buffer_.size() && (std::isfinite(sample.v) || !std::isfinite(sample.x))) {
+    // Nothing waiting and nothing to derive (velocity measured, or no position): straight through, with
+    // no delay. A later sample without velocity starts its window afresh (one-sided at first).
+    buffer_.clear();
+    next_ = 0;
+    out->push_back(sample);
+    return;
+  }
   if (sample.discontinuity) {
     // The window must not reach across a restart of the time base: finish the old segment first.
     flush(out);

@@ -37,6 +37,8 @@ const char* pushResultText(UniformResampler::PushResult result) {
       return "duplicate stamp";
     case UniformResampler::PushResult::kOutOfOrder:
       return "stamp older than the previous one";
+    case UniformResampler::PushResult::kImplausible:
+      return "value outside the physically plausible range";
     default:
       return "";
   }
@@ -186,6 +188,9 @@ void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
              inputStreamName(stream));
     free_run_->resync();
     classifier_.reset();
+  } else if (result == UniformResampler::PushResult::kHeld) {
+    // A stamp far off the time base: held until the other topics confirm the jump; counted as wild by
+    // the resampler when they do not.
   } else if (result != UniformResampler::PushResult::kAccepted) {
     const int s = static_cast<int>(stream);
     ++rejected_[s];
@@ -476,7 +481,17 @@ void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapp
   status.add("stamp jitter [ms]", formatted("%.3f", h.interval_std * 1e3));
   status.add("longest interval [ms]", formatted("%.1f", h.max_interval * 1e3));
   status.add("age of last stamp [s]", formatted("%.3f", age));
-  if (h.received == 0 && rejected_[s] == 0) {
+  status.add("implausible values", h.implausible);
+  status.add("wild stamps", h.wild_stamps);
+  // Wild stamps since the last report: the topic's clock jumped while the others' did not.
+  const bool wild_now = h.wild_stamps > wild_reported_[s];
+  wild_reported_[s] = h.wild_stamps;
+  if (wild_now) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                   "stamps " + formatted("%+.3g s", h.last_wild_offset) +
+                       " off the other topics (its clock jumped): " + std::to_string(h.wild_stamps) +
+                       " messages rejected so far; the identification goes on without them");
+  } else if (h.received == 0 && rejected_[s] == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no messages received");
   } else if (h.accepted == 0) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "every message rejected: " + last_rejection_[s]);
@@ -484,9 +499,9 @@ void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapp
     // Silent while the other topics run (judged on stamps, so a processing delay is not staleness).
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
                    "stale: silent for " + formatted("%.2f s", age) + " while the other inputs run");
-  } else if (allInputsSilentFor() > kSilenceLimit) {
+  } else if (const double silent = allInputsSilentFor(); silent > kSilenceLimit) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                   "no input for " + formatted("%.2f s", age) + " (all three topics silent)");
+                   "no input for " + formatted("%.2f s", silent) + " (all three topics silent)");
   } else if (stream == InputStream::kValve && !(ros::Time::now().toSec() - spool_stamp_ < 1.0)) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "spool position not measured (NaN): predicted with the valve model");

@@ -109,6 +109,7 @@ class IdentificationNode {
   bool ambiguity_reported_ = false;
   double spool_stamp_ = -1e18;
   std::uint64_t rejected_[kInputStreamCount] = {0, 0, 0};
+  std::uint64_t wild_reported_[kInputStreamCount] = {0, 0, 0};  // wild stamps at the last diagnostic
   std::string last_rejection_[kInputStreamCount];
 
   ros::Subscriber pressure_sub_, position_sub_, valve_sub_;

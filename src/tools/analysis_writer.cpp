@@ -76,7 +76,10 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
     out << YAML::Key << "topic" << YAML::Value << input.topics[s];
     out << YAML::Key << "messages" << YAML::Value << input.messages[s];
     out << YAML::Key << "rate" << YAML::Value << h.rate();
-    out << YAML::Key << "rejected" << YAML::Value << (h.non_finite + h.duplicates + h.out_of_order);
+    out << YAML::Key << "rejected" << YAML::Value
+        << (h.non_finite + h.duplicates + h.out_of_order + h.implausible + h.wild_stamps);
+    out << YAML::Key << "implausible" << YAML::Value << h.implausible;
+    out << YAML::Key << "wild_stamps" << YAML::Value << h.wild_stamps;
     out << YAML::Key << "gaps" << YAML::Value << h.gaps;
     out << YAML::EndMap;
   }

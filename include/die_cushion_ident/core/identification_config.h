@@ -70,6 +70,16 @@ struct IdentificationConfig {
   /// [s] largest clock offset between two topics that the estimate from the data looks for.
   double topic_delay_search = 0.05;
 
+  /// Physically plausible inputs; a message outside is rejected and counted like a NaN one.
+  double min_plausible_pressure = -2e5;  ///< [Pa] gauge: vacuum is -1 bar, plus room for sensor noise
+  /// [Pa]; NaN (default) = twice the supply pressure
+  double max_plausible_pressure = std::numeric_limits<double>::quiet_NaN();
+  double plausible_stroke_margin = 0.1;   ///< x in [-margin s, (1 + margin) s]
+  double max_plausible_velocity = 10.0;   ///< [m/s] |v|
+  double max_plausible_voltage = 100.0;   ///< [V] |u|; the spool |y| <= 1.5 (normalised to 1)
+  /// The resampler's configuration with the plausible bounds filled in from the geometry.
+  UniformResampler::Config resamplerConfig() const;
+
   /// topic_delays with unset entries as 0.
   std::array<double, kInputStreamCount> appliedTopicDelays() const;
   bool topicDelaysSet() const;

@@ -3,6 +3,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <vector>
 
 namespace die_cushion_ident {
@@ -41,9 +42,14 @@ struct StreamHealth {
   std::uint64_t out_of_order = 0;  ///< rejected: stamp before the previous one (small step back)
   std::uint64_t late = 0;          ///< accepted but too late for grid samples already emitted
   std::uint64_t gaps = 0;          ///< intervals longer than max_gap
+  std::uint64_t implausible = 0;   ///< rejected: a value outside the physically plausible range
+  std::uint64_t wild_stamps = 0;   ///< rejected: a stamp far off the others that no other topic confirmed
+  double last_wild_offset = 0.0;   ///< [s] how far the last wild stamp was off the newest stamp
   double last_stamp = 0.0;
+  std::uint64_t intervals = 0;  ///< message intervals in the statistics below
   double mean_interval = 0.0;  ///< [s]
-  double interval_std = 0.0;   ///< jitter [s]
+  double interval_std = 0.0;   ///< jitter [s] (refreshed every 64 intervals)
+  double interval_m2 = 0.0;    ///< Welford's sum of squared deviations [s^2]
   double max_interval = 0.0;   ///< [s]
   bool stale = false;          ///< silent for longer than stale_timeout while others run
   double rate() const { return mean_interval > 0.0 ? 1.0 / mean_interval : 0.0; }
@@ -55,9 +61,14 @@ struct StreamHealth {
 ///
 /// A grid point is emitted once every live stream has a message at or after it. Intervals longer than
 /// max_gap are not interpolated across (the channels become NaN). A stream silent for stale_timeout while
-/// the others run is declared stale and its channels are NaN until it speaks again. A stamp more than
-/// restart_jump before the newest one (a bag played again) or a forward jump beyond restart_jump restarts
-/// the grid; the next emitted sample carries `discontinuity`.
+/// the others run is declared stale and its channels are NaN until it speaks again.
+///
+/// Stamps far (beyond restart_jump) from the newest one are held, not used: a single wild stamp (one
+/// message stamped 100 s in the past or 1000 s ahead) is rejected and counted once a message on the old
+/// time base arrives, while a jump that the topics confirm (messages of two topics, or of the only one
+/// speaking, three in all, on the new time base and none on the old) is taken: backwards (a bag played
+/// again) it restarts the grid, forwards (a pause in the recording) the grid jumps; either way the next
+/// emitted sample carries `discontinuity`. Values outside `plausible` are rejected like non-finite ones.
 class UniformResampler {
  public:
   struct Config {
@@ -65,8 +76,17 @@ class UniformResampler {
     double max_gap = 0.02;         ///< [s] longer message intervals are gaps
     double stale_timeout = 0.2;    ///< [s]
     double restart_jump = 1.0;     ///< [s]
+    /// Physically plausible range of each stream's first value (p [Pa], x [m], u [V]) and bound on the
+    /// magnitude of its second (v [m/s], y [-]); outside is rejected and counted as implausible.
+    struct Bounds {
+      double min_first = -std::numeric_limits<double>::infinity();
+      double max_first = std::numeric_limits<double>::infinity();
+      double max_abs_second = std::numeric_limits<double>::infinity();
+    };
+    std::array<Bounds, kInputStreamCount> plausible;
   };
-  enum class PushResult { kAccepted, kNonFinite, kDuplicate, kOutOfOrder, kRestarted };
+  /// kHeld: a stamp far off the time base, kept until the topics confirm or refute the jump.
+  enum class PushResult { kAccepted, kNonFinite, kDuplicate, kOutOfOrder, kRestarted, kImplausible, kHeld };
 
   explicit UniformResampler(const Config& config);
 
@@ -87,6 +107,9 @@ class UniformResampler {
     bool has_any = false;
   };
   void restartGrid();
+  PushResult accept(InputStream stream, const StreamSample& sample, std::vector<GridSample>* out);
+  /// True once the held messages confirm a jump of the time base.
+  bool jumpConfirmed() const;
   void emitReady(std::vector<GridSample>* out, bool flushing);
   bool interpolate(int stream, double t, double* first, double* second) const;
   void updateIntervalStatistics(StreamHealth& h, double interval);
@@ -102,6 +125,11 @@ class UniformResampler {
   std::int64_t next_index_ = 0;  // grid index of the next sample to emit
   std::uint64_t restarts_ = 0;
   std::uint64_t emitted_ = 0;
+  struct Held {
+    InputStream stream;
+    StreamSample sample;
+  };
+  std::deque<Held> held_;  // messages on a candidate new time base, oldest first
 };
 
 }  // namespace die_cushion_ident

@@ -18,8 +18,9 @@ namespace die_cushion_ident {
 /// weighted mean of the true velocity over the window, so its integral over a stroke equals the stroke.
 /// Position noise sigma_x gives sigma_v = sigma_x * sqrt(12 / (n (n^2 - 1))) / dt, n = 2K+1.
 /// The whole sample (all channels) leaves the stage K samples (K * sample_period) later, so the derived
-/// velocity lines up with pressure and valve; live this is the only latency it adds. Measured velocities
-/// pass unchanged. At a discontinuity, a gap or the end of the data the window is one-sided (fewer samples).
+/// velocity lines up with pressure and valve; live this is the only latency it adds. Samples with a
+/// measured velocity pass unchanged and, while nothing waits, undelayed. At a discontinuity, a gap or the
+/// end of the data the window is one-sided (fewer samples).
 class VelocityFromPosition {
  public:
   /// half_width K >= 1 [samples].

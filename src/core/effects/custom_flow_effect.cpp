@@ -4,6 +4,8 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include "die_cushion_ident/core/effect_library.h"
@@ -44,6 +46,63 @@ CustomFlowEffect::CustomFlowEffect(std::string name, std::string expression)
   } catch (const mu::Parser::exception_type& e) {
     throw std::invalid_argument("custom effect '" + name_ + "': cannot use expression '" + expression_ +
                                 "': " + e.GetMsg() + " (signals: p, dp, x, v, u, y, V, t)");
+  }
+  probe();
+}
+
+void CustomFlowEffect::probe() const {
+  // Evaluate over the signals' plausible operating range: a term that is non-finite or absurd there
+  // would wreck the estimator, one that is always zero cannot be identified. Both are refused now, with
+  // the point that shows it, instead of being reported later as "fitted" at their initial value.
+  static const double kP[] = {0.0, 1e5, 30e5, 100e5, 200e5, 300e5};
+  static const double kDp[] = {-1e8, 0.0, 1e8};
+  static const double kX[] = {0.0, 0.1, 0.25};
+  static const double kV[] = {-0.3, 0.0, 0.3};
+  static const double kU[] = {-1.0, 0.0, 1.0};
+  static const double kY[] = {-0.5, 0.0, 0.5};
+  static const double kVolume[] = {0.005, 0.02};
+  static const double kT[] = {0.0, 100.0};
+  constexpr double kAbsurd = 1e30;  // p^4 at 300 bar is 8e29: anything larger is no flow term
+  bool varies = false;
+  double first = std::numeric_limits<double>::quiet_NaN();
+  const auto where = [](const HydraulicSignals& s) {
+    char text[160];
+    std::snprintf(text, sizeof(text), "p = %g Pa, dp = %g Pa/s, x = %g m, v = %g m/s, u = %g V, y = %g, V = %g m^3",
+                  s.p, s.dp, s.x, s.v, s.u, s.y, s.V);
+    return std::string(text);
+  };
+  HydraulicSignals s;
+  for (double p : kP)
+    for (double dp : kDp)
+      for (double x : kX)
+        for (double v : kV)
+          for (double u : kU)
+            for (double y : kY)
+              for (double volume : kVolume)
+                for (double t : kT) {
+                  s = {t, p, dp, x, v, u, y, volume};
+                  bound_ = s;
+                  double value = 0.0;
+                  try {
+                    value = parser_->Eval();
+                  } catch (const mu::Parser::exception_type& e) {
+                    throw std::invalid_argument("custom effect '" + name_ + "': '" + expression_ +
+                                                "' cannot be evaluated at " + where(s) + ": " + e.GetMsg());
+                  }
+                  if (!std::isfinite(value) || std::abs(value) > kAbsurd) {
+                    char number[32];
+                    std::snprintf(number, sizeof(number), "%g", value);
+                    throw std::invalid_argument(
+                        "custom effect '" + name_ + "': '" + expression_ + "' evaluates to " + number + " at " +
+                        where(s) + " (inside the operating range): a flow term must stay finite and below 1e30 " +
+                        "there; guard it, e.g. max(p, 1e5) in a denominator");
+                  }
+                  if (std::isnan(first)) first = value;
+                  varies |= value != first;
+                }
+  if (!varies && first == 0.0) {
+    throw std::invalid_argument("custom effect '" + name_ + "': '" + expression_ +
+                                "' is 0 everywhere in the operating range: there is no flow to identify");
   }
 }
 

@@ -16,7 +16,8 @@ namespace die_cushion_ident {
 /// Evaluation reuses one parser, so one instance must not be shared between threads (clone() instead).
 class CustomFlowEffect final : public Effect {
  public:
-  /// Throws std::invalid_argument naming the problem (bad name, syntax error, unknown signal).
+  /// Throws std::invalid_argument naming the problem (bad name, syntax error, unknown signal, or a term
+  /// that is non-finite, beyond 1e30 or zero everywhere over the signals' operating range).
   CustomFlowEffect(std::string name, std::string expression);
   ~CustomFlowEffect() override;
   CustomFlowEffect(const CustomFlowEffect&) = delete;
@@ -30,6 +31,8 @@ class CustomFlowEffect final : public Effect {
   const std::string& expression() const { return expression_; }
 
  private:
+  void probe() const;
+
   std::string name_;
   std::string expression_;
   mutable HydraulicSignals bound_;  // the parser reads its variables from here
