@@ -4,11 +4,15 @@
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/FluidPressure.h>
 #include <std_msgs/Float64.h>
 #include <sys/wait.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <cstdio>
+#include <functional>
+#include <regex>
 #include <cstdlib>
 #include <fstream>
 #include <set>
@@ -183,7 +187,7 @@ TEST_F(AnalyzeBag, BadInputGetsAClearErrorAndAnExitCode) {
   }
   r = run(tool + kWork + "/not_a.bag --out " + kWork + "/x");
   EXPECT_EQ(r.status, 3);
-  EXPECT_NE(r.output.find("cannot open bag"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("is not a ROS bag"), std::string::npos) << r.output;
   {
     std::ifstream whole(kWork + "/leak.bag", std::ios::binary);
     std::string bytes((std::istreambuf_iterator<char>(whole)), std::istreambuf_iterator<char>());
@@ -216,6 +220,152 @@ TEST_F(AnalyzeBag, BadInputGetsAClearErrorAndAnExitCode) {
   EXPECT_EQ(r.status, 3);
   EXPECT_NE(r.output.find("has type std_msgs/Float64, expected sensor_msgs/FluidPressure"), std::string::npos)
       << r.output;
+}
+
+// A copy of `in` with each pressure message passed through `change` (index, message); the other topics as
+// they are.
+void rewritePressure(const std::string& in, const std::string& out,
+                     const std::function<void(int, sensor_msgs::FluidPressure&)>& change, bool drop_valve = false) {
+  rosbag::Bag source(in, rosbag::bagmode::Read);
+  rosbag::Bag target(out, rosbag::bagmode::Write);
+  int index = 0;
+  for (const rosbag::MessageInstance& m : rosbag::View(source)) {
+    if (m.getTopic() == "/die_cushion/pressure") {
+      auto msg = m.instantiate<sensor_msgs::FluidPressure>();
+      change(index++, *msg);
+      target.write(m.getTopic(), m.getTime(), *msg);
+    } else if (!(drop_valve && m.getTopic() == "/die_cushion/valve")) {
+      target.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
+    }
+  }
+}
+
+std::string fileText(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+bool anyWarningSays(const YAML::Node& summary, const std::string& text) {
+  for (const auto& w : summary["warnings"]) {
+    if (w.as<std::string>().find(text) != std::string::npos) return true;
+  }
+  return false;
+}
+
+// The hostile-input review's cases: each gets a clear message, the right exit code and finite outputs.
+TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
+  const std::string tool = kTools + "/analyze_bag ";
+  const std::string geometry = "piston_area: 0.05\nstroke_length: 0.25\nsupply_pressure: 120e5\n";
+  const auto config = [&](const std::string& name, const std::string& text) {
+    std::ofstream(kWork + "/" + name) << text;
+    return " --config " + kWork + "/" + name;
+  };
+  const std::regex non_finite(R"((\.nan|\.inf|\bnan\b|\binf\b))", std::regex::icase);
+  const auto expectFinite = [&](const std::string& directory) {
+    for (const char* file : {"summary.yaml", "estimates.csv", "model_comparison.csv"}) {
+      const std::string text = fileText(directory + "/" + file);
+      EXPECT_FALSE(text.empty()) << file;
+      EXPECT_FALSE(std::regex_search(text, non_finite)) << directory << "/" << file << " holds a non-finite value";
+    }
+  };
+
+  // Configurations that used to abort the program or be misreported.
+  std::system(("mkdir -p " + kWork + "/a_directory").c_str());
+  CommandResult r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --config " + kWork + "/a_directory");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("is a directory"), std::string::npos) << r.output;
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" + config("nonscalar.yaml", "[a, b]: 1\ntopics: {pressure: [1, 2]}\n"));
+  EXPECT_EQ(r.status, 2) << r.output;
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" + config("width.yaml", "moving_average_width: 31.5\n"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("moving_average_width = 31.5"), std::string::npos) << r.output;
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" + config("period.yaml", "sample_period: 100\n"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("sample_period = 100"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("max_gap"), std::string::npos) << "only the wrong key is named:\n" << r.output;
+  for (const char* custom : {"a=1/(p-p)", "b=log(0)", "c=exp(p)", "d=0", "e=(p>100e5)?1e300:0"}) {
+    r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --custom-effect '" + custom + "'");
+    EXPECT_EQ(r.status, 2) << custom << "\n" << r.output;
+    EXPECT_NE(r.output.find(custom + 2), std::string::npos) << r.output;
+  }
+
+  // Absurd values in the recording: rejected like NaN, counted, and nothing non-finite written.
+  rewritePressure(kWork + "/leak.bag", kWork + "/absurd.bag", [](int i, sensor_msgs::FluidPressure& m) {
+    if (i >= 5000 && i < 5020) m.fluid_pressure = 1e300;
+    if (i >= 9000 && i < 9020) m.fluid_pressure = 1e9;
+    if (i == 12000) m.fluid_pressure = -1e300;
+  });
+  r = run(tool + kWork + "/absurd.bag --out " + kWork + "/absurd" + config("geometry.yaml", geometry));
+  EXPECT_EQ(r.status, 0) << r.output;
+  {
+    const YAML::Node s = YAML::LoadFile(kWork + "/absurd/summary.yaml");
+    EXPECT_EQ(s["input"]["topics"]["pressure"]["implausible"].as<int>(), 41);
+    EXPECT_TRUE(anyWarningSays(s, "outside the physically plausible range")) << fileText(kWork + "/absurd/summary.yaml");
+    EXPECT_GT(s["model"]["parameters"][0]["value"].as<double>(), 1e8) << "no negative bulk modulus";
+    EXPECT_EQ(s["candidates"][0]["effect"].as<std::string>(), "leakage") << "the conclusion does not flip";
+    EXPECT_EQ(s["candidates"][0]["verdict"].as<std::string>(), "missing");
+  }
+  expectFinite(kWork + "/absurd");
+
+  // Pressure recorded in bar: nothing can be identified, and the summary says why instead of showing the
+  // initial values with std 0 and "within the noise".
+  rewritePressure(kWork + "/leak.bag", kWork + "/bar.bag",
+                  [](int, sensor_msgs::FluidPressure& m) { m.fluid_pressure *= 1e-5; });
+  r = run(tool + kWork + "/bar.bag --out " + kWork + "/bar" + config("geometry.yaml", geometry));
+  EXPECT_EQ(r.status, 5) << r.output;
+  {
+    const YAML::Node s = YAML::LoadFile(kWork + "/bar/summary.yaml");
+    EXPECT_EQ(s["model"]["parameters"].size(), 0u) << "no initial values shown as estimates";
+    EXPECT_FALSE(s["fit"]["simulation_error_rms"]) << "no error that was not measured";
+    EXPECT_TRUE(anyWarningSays(s, "recorded in bar")) << fileText(kWork + "/bar/summary.yaml");
+    EXPECT_EQ(s["adequacy"]["conclusion"].as<std::string>().find("within the noise"), std::string::npos);
+  }
+  expectFinite(kWork + "/bar");
+
+  // The valve topic missing: partial, said, no parameters.
+  rewritePressure(kWork + "/leak.bag", kWork + "/novalve.bag", [](int, sensor_msgs::FluidPressure&) {}, true);
+  r = run(tool + kWork + "/novalve.bag --out " + kWork + "/novalve" + config("geometry.yaml", geometry));
+  EXPECT_EQ(r.status, 5) << r.output;
+  EXPECT_EQ(YAML::LoadFile(kWork + "/novalve/summary.yaml")["model"]["parameters"].size(), 0u);
+
+  // Corrupted bytes in the middle: partial, with the share that was read.
+  {
+    std::string bytes = fileText(kWork + "/leak.bag");
+    for (std::size_t i = 0; i < 200; ++i) bytes[bytes.size() / 3 + i] = static_cast<char>(0xA5);
+    std::ofstream(kWork + "/corrupt.bag", std::ios::binary) << bytes;
+  }
+  r = run(tool + kWork + "/corrupt.bag --out " + kWork + "/corrupt" + config("geometry.yaml", geometry));
+  EXPECT_EQ(r.status, 5) << r.output;
+  EXPECT_TRUE(anyWarningSays(YAML::LoadFile(kWork + "/corrupt/summary.yaml"), "% of its messages"))
+      << fileText(kWork + "/corrupt/summary.yaml");
+
+  // A bag that lost only its index, analysed through a repair whose temporary copy is removed.
+  const std::string tmp = kWork + "/tmp";
+  std::system(("rm -rf " + tmp + " && mkdir -p " + tmp).c_str());
+  {
+    const std::string bytes = fileText(kWork + "/leak.bag");
+    std::ofstream(kWork + "/noindex.bag", std::ios::binary) << bytes.substr(0, bytes.size() - 2000);
+  }
+  r = run("TMPDIR=" + tmp + " " + tool + kWork + "/noindex.bag --out " + kWork + "/noindex" +
+          config("geometry.yaml", geometry));
+  EXPECT_EQ(r.status, 5) << r.output;
+  EXPECT_GT(YAML::LoadFile(kWork + "/noindex/summary.yaml")["fit"]["samples"].as<int>(), 1000);
+  EXPECT_EQ(run("ls -A " + tmp).output, "") << "the repair's copy is removed";
+
+  // A reused output folder keeps no stale file of the previous run.
+  ASSERT_EQ(run(tool + kWork + "/leak.bag --out " + kWork + "/reused").status, 0);
+  ASSERT_TRUE(std::ifstream(kWork + "/reused/frequency_response.csv").good());
+  ASSERT_EQ(run(tool + kWork + "/absurd.bag --out " + kWork + "/reused" + config("geometry.yaml", geometry)).status, 0);
+  EXPECT_TRUE(std::ifstream(kWork + "/reused/frequency_response.csv").good()) << "this bag has a sweep too";
+  ASSERT_EQ(run(kTools + "/simulate_bag " + kWork + "/nosweep.bag --cycles 3 --seed 2").status, 0);
+  ASSERT_EQ(run(tool + kWork + "/nosweep.bag --out " + kWork + "/reused" + config("geometry.yaml", geometry)).status, 0);
+  EXPECT_FALSE(std::ifstream(kWork + "/reused/frequency_response.csv").good()) << "no stale valve results";
+
+  // A full disk (a file-size limit here): exit 4 with the reason, never an abort.
+  r = run("bash -c 'trap \"\" XFSZ; ulimit -f 200; " + tool + kWork + "/leak.bag --out " + kWork + "/full" +
+          config("geometry.yaml", geometry) + "'");
+  EXPECT_EQ(r.status, 4) << r.output;
+  EXPECT_NE(r.output.find("cannot write"), std::string::npos) << r.output;
 }
 
 }  // namespace

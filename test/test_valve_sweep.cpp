@@ -92,9 +92,13 @@ TEST(ValveSweep, RefusesInvalidRequestsWithAReason) {
   };
   EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies.clear(); }).find("no frequencies"),
             std::string::npos);
-  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {-5}; }).find("> 0 Hz"), std::string::npos);
-  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {NAN}; }).find("invalid"), std::string::npos);
-  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {600}; }).find("Nyquist"), std::string::npos);
+  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {-5, 10, 20, 30, 40}; }).find("> 0 Hz"), std::string::npos);
+  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {NAN, 10, 20, 30, 40}; }).find("invalid"), std::string::npos);
+  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {600, 10, 20, 30, 40}; }).find("Nyquist"), std::string::npos);
+  // Hostile-input review: a 3-frequency sweep was accepted and failed minutes later in the fit.
+  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {10, 20, 30}; }).find("at least 5"), std::string::npos);
+  EXPECT_NE(refusal([](SweepRequest& r) { r.frequencies = {10, 10, 10, 10, 20}; }).find("at least 5"),
+            std::string::npos);
   EXPECT_NE(refusal([](SweepRequest& r) { r.amplitude = 0; }).find("amplitude"), std::string::npos);
   EXPECT_NE(refusal([](SweepRequest& r) { r.amplitude = 5; }).find("sweep_max_amplitude"), std::string::npos);
   EXPECT_NE(refusal([](SweepRequest& r) { r.amplitude = INFINITY; }).find("amplitude"), std::string::npos);

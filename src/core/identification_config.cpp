@@ -131,6 +131,16 @@ std::vector<std::string> numericConfigKeys() {
   return keys;
 }
 
+std::string numericConfigProblem(const std::string& key, double value) {
+  if ((key == "moving_average_width" || key == "derivative_width") &&
+      !(std::isfinite(value) && value == std::floor(value))) {
+    std::ostringstream s;
+    s << key << " = " << value << " is invalid: allowed odd whole numbers of samples";
+    return s.str();
+  }
+  return "";
+}
+
 bool setNumericConfigValue(IdentificationConfig& config, const std::string& key, double value) {
   if (key == "moving_average_width" || key == "derivative_width") {
     // A non-integer or absurd width becomes an invalid (even or negative) one, which validate() reports.
@@ -153,15 +163,19 @@ std::vector<std::string> IdentificationConfig::validate() const {
   c.range("piston_area", geometry.piston_area, 0.0, 10.0, "m^2", true);
   c.range("stroke_length", geometry.stroke_length, 0.0, 5.0, "m", true);
   c.range("supply_pressure", geometry.supply_pressure, 0.0, 1e9, "Pa", true);
+  const std::size_t errors_before_period = c.errors.size();
   c.range("sample_period", resampler.sample_period, 1e-5, 0.1, "s");
-  c.range("max_gap", resampler.max_gap, resampler.sample_period, 10.0, "s", true);
+  // Keys judged against sample_period are judged against the default where it is invalid: otherwise they
+  // would only echo its problem under their own names.
+  const bool period_ok = c.errors.size() == errors_before_period;
+  const double period = period_ok ? resampler.sample_period : IdentificationConfig().resampler.sample_period;
+  c.range("max_gap", resampler.max_gap, period, 10.0, "s", true);
   c.range("stale_timeout", resampler.stale_timeout, resampler.max_gap, 60.0, "s");
   c.range("restart_jump", resampler.restart_jump, resampler.stale_timeout, 3600.0, "s", true);
   c.oddWidth("moving_average_width", moving_average_width, 1, 1001);
   c.oddWidth("derivative_width", derivative_width, 3, 1001);
-  c.range("identification_period", identification_period, resampler.sample_period, 10.0, "s");
-  if (std::isfinite(identification_period) && std::isfinite(resampler.sample_period) &&
-      resampler.sample_period > 0 &&
+  c.range("identification_period", identification_period, period, 10.0, "s");
+  if (period_ok && std::isfinite(identification_period) &&
       std::abs(identification_period / resampler.sample_period - decimation()) > 1e-6) {
     c.errors.push_back("identification_period = " + std::to_string(identification_period) +
                        " is invalid: must be a whole multiple of sample_period = " +
@@ -185,7 +199,7 @@ std::vector<std::string> IdentificationConfig::validate() const {
     c.range(key.c_str(), topic_delays[s], -1.0, 1.0, "s");
   }
   c.range("topic_delay_search", topic_delay_search, 0.0, 0.5, "s");
-  c.range("velocity_window", velocity_window, 2.0 * resampler.sample_period, 1.0, "s");
+  c.range("velocity_window", velocity_window, 2.0 * period, 1.0, "s");
   c.range("min_plausible_pressure", min_plausible_pressure, -1e7, 1e9, "Pa");
   if (!std::isnan(max_plausible_pressure))
     c.range("max_plausible_pressure", max_plausible_pressure, std::max(min_plausible_pressure, 0.0), 1e10, "Pa", true);

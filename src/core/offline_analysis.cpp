@@ -90,10 +90,10 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     if (h.implausible > 0) {
       char text[320];
       std::snprintf(text, sizeof(text),
-                    "%llu %s messages outside the physically plausible range [%.4g, %.4g] (and |second| <= %g) "
-                    "were rejected like NaN ones (see the plausible_* configuration keys)",
+                    "%llu %s messages outside the physically plausible range [%.4g, %.4g]%s were rejected like "
+                    "non-finite ones (see the *_plausible_* configuration keys)",
                     static_cast<unsigned long long>(h.implausible), name, bounds[s].min_first, bounds[s].max_first,
-                    bounds[s].max_abs_second);
+                    s == 0 ? "" : s == 1 ? " (or |velocity| above max_plausible_velocity)" : " (or |spool| > 1.5)");
       r.warnings.push_back(text);
     }
     if (h.wild_stamps > 0) {
@@ -160,6 +160,11 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
                              "it down (more varied strokes would), or an effect the model lacks pulls it");
       }
     }
+  }
+  if (r.hydraulics && r.model.updates == 0) {
+    // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
+    r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
+  } else if (r.hydraulics) {
     ParameterVector theta(model.parameterCount());
     for (int i = 0; i < model.parameterCount(); ++i) theta(i) = r.model.parameters[i].value;
     tell("running the model free against the measurement");

@@ -266,9 +266,15 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
     markers_pub_.publish(cushionMarkers(config_.geometry, view, e, frame_id_, stamp));
   }
   if (comparison) {
-    comparison_pub_.publish(toModelComparisonMsg(last_grid_, modelled_pressure_, phase_,
-                                                 std::sqrt(residual_square_mean_), e.equation_error_rms,
-                                                 ros::Time(std::max(last_grid_.t, 0.0))));
+    const ModelComparison msg =
+        toModelComparisonMsg(last_grid_, modelled_pressure_, phase_, std::sqrt(residual_square_mean_),
+                             e.equation_error_rms, ros::Time(std::max(last_grid_.t, 0.0)));
+    // Only what was computed: while the model cannot run, the adequacy diagnostic says why instead.
+    if (std::isfinite(msg.modelled_pressure) && std::isfinite(msg.measured_pressure) &&
+        std::isfinite(msg.position) && std::isfinite(msg.velocity) && std::isfinite(msg.spool_position) &&
+        std::isfinite(msg.equation_error_rms)) {
+      comparison_pub_.publish(msg);
+    }
   }
 }
 

@@ -68,7 +68,14 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
                                         SweepLimits* limits, NodeSettings* settings) {
   std::vector<std::string> problems;
   for (const auto& key : numericConfigKeys()) {
-    readNumber(pnh, key, &problems, [&](double v) { setNumericConfigValue(*config, key, v); });
+    readNumber(pnh, key, &problems, [&](double v) {
+      const std::string problem = numericConfigProblem(key, v);
+      if (problem.empty()) {
+        setNumericConfigValue(*config, key, v);
+      } else {
+        problems.push_back("~" + problem);
+      }
+    });
   }
   for (const auto& key : sweepLimitKeys()) {
     readNumber(pnh, key, &problems, [&](double v) { setSweepLimit(*limits, key, v); });
@@ -78,8 +85,11 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   readNumber(pnh, "effect_ranking_window", &problems, [&](double v) { settings->effect_ranking_window = v; });
   readNumber(pnh, "effect_ranking_period", &problems, [&](double v) { settings->effect_ranking_period = v; });
   std::string form;
-  if (pnh.getParam("regression_form", form) && !parseRegressionForm(form, &config->regression_form)) {
-    problems.push_back("~regression_form = " + form + " is invalid: allowed integral, derivative");
+  if (pnh.hasParam("regression_form") &&
+      (!pnh.getParam("regression_form", form) || !parseRegressionForm(form, &config->regression_form))) {
+    // A number (_regression_form:=5) is no name either: refused, not ignored.
+    problems.push_back("~regression_form = " + (form.empty() ? std::string("(not a name)") : form) +
+                       " is invalid: allowed integral, derivative");
   }
   if (pnh.hasParam("joint_name") && (!pnh.getParam("joint_name", settings->joint_name) || settings->joint_name.empty())) {
     problems.push_back("~joint_name is invalid: must be the name of a joint in the position topic's JointState");

@@ -5,7 +5,13 @@
 #include <algorithm>
 #include <fstream>
 
+#include <sys/stat.h>
+
 namespace die_cushion_ident {
+
+std::vector<std::string> readAnalysisConfig(const YAML::Node& root, const std::string& path,
+                                            IdentificationConfig* config, InputTopics* topics,
+                                            std::vector<std::string>* keys_given);
 
 namespace {
 
@@ -32,18 +38,37 @@ std::vector<std::string> stringList(const YAML::Node& node, const std::string& k
 
 std::vector<std::string> loadAnalysisConfig(const std::string& path, IdentificationConfig* config,
                                             InputTopics* topics, std::vector<std::string>* keys_given) {
-  std::vector<std::string> problems;
-  if (!std::ifstream(path).good()) return {"cannot read config file '" + path + "'"};
+  struct stat info;
+  if (stat(path.c_str(), &info) != 0) return {"cannot read config file '" + path + "': it does not exist"};
+  if (S_ISDIR(info.st_mode)) return {"config file '" + path + "' is a directory, not a YAML file"};
+  if (!std::ifstream(path).good()) return {"cannot read config file '" + path + "' (no permission?)"};
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
   } catch (const YAML::Exception& e) {
     return {"config file '" + path + "' is not valid YAML: " + e.what()};
   }
+  try {
+    return readAnalysisConfig(root, path, config, topics, keys_given);
+  } catch (const YAML::Exception& e) {
+    // A key or value of an unexpected shape (a mapping as a key, a list where a name belongs).
+    return {"config file '" + path + "': unexpected structure (" + e.what() +
+            "); keys must be plain names and values numbers, names or the lists README shows"};
+  }
+}
+
+std::vector<std::string> readAnalysisConfig(const YAML::Node& root, const std::string& path,
+                                            IdentificationConfig* config, InputTopics* topics,
+                                            std::vector<std::string>* keys_given) {
+  std::vector<std::string> problems;
   if (root.IsNull()) return {};
   if (!root.IsMap()) return {"config file '" + path + "' must be a mapping of keys to values"};
   const auto numeric = numericConfigKeys();
   for (const auto& entry : root) {
+    if (!entry.first.IsScalar()) {
+      problems.push_back("a key of the config file is not a plain name (a list or mapping as a key)");
+      continue;
+    }
     const std::string key = entry.first.as<std::string>();
     const YAML::Node& value = entry.second;
     keys_given->push_back(key);
@@ -52,8 +77,13 @@ std::vector<std::string> loadAnalysisConfig(const std::string& path, Identificat
       try {
         number = value.as<double>();
       } catch (const YAML::Exception&) {
-        problems.push_back(key + ": '" + (value.IsScalar() ? value.as<std::string>() : "?") +
+        problems.push_back(key + ": '" + (value.IsScalar() ? value.as<std::string>() : "(a list or mapping)") +
                            "' is not a number");
+        continue;
+      }
+      const std::string problem = numericConfigProblem(key, number);
+      if (!problem.empty()) {
+        problems.push_back(problem);
         continue;
       }
       setNumericConfigValue(*config, key, number);

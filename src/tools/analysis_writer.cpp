@@ -5,7 +5,9 @@
 
 #include <cmath>
 #include <fstream>
+#include <cstdio>
 #include <iomanip>
+#include <regex>
 #include <stdexcept>
 
 #include "die_cushion_ident/FrequencyResponse.h"
@@ -58,8 +60,43 @@ void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& 
   out << YAML::EndSeq;
 }
 
+std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r);
+
+// yaml-cpp writes NaN and infinity as .nan / .inf; the contract allows neither. Each becomes null (~), and the
+// count is returned so that a warning can say so.
+int replaceNonFinite(std::string* text) {
+  static const std::regex kNonFinite(R"((^|[\s:\[,{])-?\.(nan|inf|NaN|Inf)(?=$|[\s,\]}]))");
+  int count = 0;
+  std::string out;
+  auto begin = std::sregex_iterator(text->begin(), text->end(), kNonFinite);
+  std::size_t last = 0;
+  for (auto it = begin; it != std::sregex_iterator(); ++it) {
+    out.append(*text, last, it->position() - last);
+    out += (*it)[1].str() + "~";
+    last = it->position() + it->length();
+    ++count;
+  }
+  out.append(*text, last, std::string::npos);
+  *text = out;
+  return count;
+}
+
 void writeSummary(const std::string& path, const AnalysisInput& input, const IdentificationConfig& config,
-                  const OfflineResult& r) {
+                  const OfflineResult& result) {
+  std::string text = emitSummary(input, config, result);
+  if (replaceNonFinite(&text) > 0) {
+    OfflineResult flagged = result;
+    flagged.warnings.push_back("some figures could not be computed (not finite) and are written as null (~)");
+    text = emitSummary(input, config, flagged);
+    replaceNonFinite(&text);
+  }
+  std::ofstream file(path);
+  file << "# die_cushion_ident analyze_bag summary (SI units; see README.md)\n" << text << "\n";
+  file.close();
+  if (!file) throw std::runtime_error("cannot write " + path + " (disk full or no permission?)");
+}
+
+std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r) {
   static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
   YAML::Emitter out;
   out.SetDoublePrecision(6);
@@ -142,9 +179,13 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
   }
   out << YAML::EndSeq;
   out << YAML::Key << "adequacy" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "held_out_error_rms" << YAML::Value << r.ranking.base_error_rms;
-  out << YAML::Key << "best_error_rms" << YAML::Value << r.ranking.best_error_rms;
-  out << YAML::Key << "noise_rms" << YAML::Value << r.ranking.noise_rms;
+  // Held-out errors exist only where the ranking could judge on held-out strokes.
+  const bool judged = r.model.updates > 0 && r.strokes.cycles >= EffectRankingOptions().min_held_out_cycles;
+  if (judged) {
+    out << YAML::Key << "held_out_error_rms" << YAML::Value << r.ranking.base_error_rms;
+    out << YAML::Key << "best_error_rms" << YAML::Value << r.ranking.best_error_rms;
+  }
+  if (r.ranking.noise_rms > 0.0) out << YAML::Key << "noise_rms" << YAML::Value << r.ranking.noise_rms;
   out << YAML::Key << "residual_unexplained" << YAML::Value << r.ranking.residual_unexplained;
   out << YAML::Key << "conclusion" << YAML::Value << r.ranking.conclusion;
   out << YAML::EndMap;
@@ -182,15 +223,30 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
   }
   out << YAML::Key << "warnings" << YAML::Value << r.warnings;
   out << YAML::EndMap;
+  return out.c_str();
+}
 
-  std::ofstream file(path);
-  file << "# die_cushion_ident analyze_bag summary (SI units; see README.md)\n" << out.c_str() << "\n";
-  if (!file) throw std::runtime_error("cannot write " + path);
+// A CSV field: the number, or empty where it could not be computed (never nan / inf).
+struct Field {
+  double value;
+};
+std::ostream& operator<<(std::ostream& out, Field f) {
+  if (std::isfinite(f.value)) out << f.value;
+  return out;
+}
+
+void closeChecked(std::ofstream& file, const std::string& path) {
+  file.close();
+  if (!file) throw std::runtime_error("cannot write " + path + " (disk full or no permission?)");
 }
 
 void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const std::vector<GridSample>& grid,
                     const HydraulicModel& model) {
-  rosbag::Bag bag;
+  // rosbag::Bag closes itself in its destructor and throws there when the disk is full, which would abort
+  // the program while an exception is already on its way: the bag object is kept alive on that path (the
+  // process exits with 4 right after).
+  auto* bag_object = new rosbag::Bag;
+  rosbag::Bag& bag = *bag_object;
   bag.open(directory + "/analysis.bag", rosbag::bagmode::Write);
   std::ofstream estimates_csv(directory + "/estimates.csv");
   estimates_csv << "t";
@@ -204,9 +260,11 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
     msg.equation_error_rms = e.equation_error_rms;
     bag.write("/die_cushion_ident/estimate", msg.header.stamp, msg);
     estimates_csv << Stamp{e.t};
-    for (std::size_t i = 0; i < e.values.size(); ++i) estimates_csv << "," << e.values[i] << "," << e.stds[i];
-    estimates_csv << "," << e.equation_error_rms << "\n";
+    for (std::size_t i = 0; i < e.values.size(); ++i)
+      estimates_csv << "," << Field{e.values[i]} << "," << Field{e.stds[i]};
+    estimates_csv << "," << Field{e.equation_error_rms} << "\n";
   }
+  closeChecked(estimates_csv, directory + "/estimates.csv");
 
   std::ofstream comparison_csv(directory + "/model_comparison.csv");
   comparison_csv << "t,measured_pressure,modelled_pressure,residual,position,velocity,spool_position,phase\n";
@@ -217,10 +275,16 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
     const ModelComparison msg =
         toModelComparisonMsg(g, modelled[i], r.strokes.phase[i], r.assessment.simulation_error_rms,
                              r.model.equation_error_rms, stampOf(g.t));
-    bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
-    comparison_csv << Stamp{g.t} << "," << g.p << "," << modelled[i] << "," << msg.residual << "," << g.x
-                   << "," << g.v << "," << g.y << "," << msg.phase_name << "\n";
+    // Messages only where every figure was computed (the model runs, the signals are there).
+    if (std::isfinite(msg.modelled_pressure) && std::isfinite(msg.measured_pressure) && std::isfinite(msg.position) &&
+        std::isfinite(msg.velocity) && std::isfinite(msg.spool_position) && std::isfinite(msg.simulation_error_rms) &&
+        std::isfinite(msg.equation_error_rms)) {
+      bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
+    }
+    comparison_csv << Stamp{g.t} << "," << Field{g.p} << "," << Field{modelled[i]} << "," << Field{msg.residual}
+                   << "," << Field{g.x} << "," << Field{g.v} << "," << Field{g.y} << "," << msg.phase_name << "\n";
   }
+  closeChecked(comparison_csv, directory + "/model_comparison.csv");
 
   if (r.valve) {
     const ros::Time stamp = stampOf(r.valve->segments.back().end);
@@ -230,12 +294,14 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
     std::ofstream csv(directory + "/frequency_response.csv");
     csv << "frequency,re,im,magnitude,phase,magnitude_std,phase_std,harmonic_distortion,distorted\n";
     for (const auto& p : r.valve->points) {
-      csv << p.frequency << "," << p.re << "," << p.im << "," << p.magnitude << "," << p.phase << ","
-          << p.magnitude_std << "," << p.phase_std << "," << p.harmonic_distortion << "," << p.distorted
-          << "\n";
+      csv << Field{p.frequency} << "," << Field{p.re} << "," << Field{p.im} << "," << Field{p.magnitude} << ","
+          << Field{p.phase} << "," << Field{p.magnitude_std} << "," << Field{p.phase_std} << ","
+          << Field{p.harmonic_distortion} << "," << p.distorted << "\n";
     }
+    closeChecked(csv, directory + "/frequency_response.csv");
   }
   bag.close();
+  delete bag_object;  // closed: its destructor has nothing left to throw
 }
 
 }  // namespace
@@ -243,6 +309,12 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
 void writeAnalysis(const std::string& directory, const AnalysisInput& input,
                    const IdentificationConfig& config, const OfflineResult& result,
                    const std::vector<GridSample>& grid) {
+  // A reused output folder must not keep a previous run's files (a stale frequency_response.csv would
+  // describe another recording).
+  for (const char* name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
+                           "frequency_response.csv"}) {
+    std::remove((directory + "/" + name).c_str());
+  }
   writeSummary(directory + "/summary.yaml", input, config, result);
   const HydraulicModel model =
       HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);

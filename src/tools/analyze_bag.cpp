@@ -93,21 +93,81 @@ bool looksLikeBag(const std::string& path) {
   return file && std::string(magic) == "#ROSBAG V2.0";
 }
 
+// The repair's temporary directory, removed on every way out (fail() exits without unwinding the stack, so
+// this is a static whose destructor runs at exit).
+struct TemporaryDirectory {
+  std::string path;
+  void remove() {
+    if (!path.empty()) std::system(("rm -rf '" + path + "'").c_str());
+    path.clear();
+  }
+  ~TemporaryDirectory() { remove(); }
+};
+TemporaryDirectory repair_directory;
+
 // A reindexed copy of `bag` in a new temporary directory (returned in `directory`); "" if that failed.
 std::string repairedCopy(const std::string& bag, std::string* directory) {
-  char pattern[] = "/tmp/analyze_bag_repair_XXXXXX";
-  if (!mkdtemp(pattern)) return "";
-  *directory = pattern;
+  const char* tmp = std::getenv("TMPDIR");
+  std::string pattern_text = std::string(tmp && *tmp ? tmp : "/tmp") + "/analyze_bag_repair_XXXXXX";
+  std::vector<char> pattern(pattern_text.begin(), pattern_text.end());
+  pattern.push_back('\0');
+  if (!mkdtemp(pattern.data())) return "";
+  *directory = pattern.data();
+  repair_directory.path = *directory;
   const auto quoted = [](const std::string& s) {
     std::string out = "'";
     for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
     return out + "'";
   };
-  const std::string command =
-      "rosbag reindex --quiet --output-dir " + quoted(*directory) + " " + quoted(bag) + " >/dev/null 2>&1";
-  if (std::system(command.c_str()) != 0) return "";
+  // 'rosbag reindex' trusts the bag header's index position and stops at a damaged index: a bag that lost
+  // only its index (cut a few kB before its end) comes out empty. A copy of the chunks alone (everything
+  // before the index position) whose header says "no index" (the state of a bag cut while recording)
+  // makes reindex scan the chunks instead.
   const auto slash = bag.find_last_of('/');
-  return *directory + "/" + (slash == std::string::npos ? bag : bag.substr(slash + 1));
+  const std::string name = slash == std::string::npos ? bag : bag.substr(slash + 1);
+  const std::string unindexed_directory = *directory + "/unindexed";
+  if (mkdir(unindexed_directory.c_str(), 0700) != 0) return "";
+  const std::string unindexed = unindexed_directory + "/" + name;
+  {
+    std::ifstream in(bag, std::ios::binary);
+    std::ofstream out(unindexed, std::ios::binary);
+    std::vector<char> block(1 << 20);
+    bool first = true;
+    std::uint64_t remaining = std::numeric_limits<std::uint64_t>::max();  // bytes of chunks to copy
+    while (in && remaining > 0) {
+      in.read(block.data(), static_cast<std::streamsize>(std::min<std::uint64_t>(block.size(), remaining)));
+      const std::streamsize got = in.gcount();
+      if (got <= 0) break;
+      if (first) {
+        const std::string head(block.data(), std::min<std::size_t>(static_cast<std::size_t>(got), 4096 + 13));
+        const auto at = head.find("index_pos=");
+        if (at != std::string::npos && at + 18 <= head.size()) {
+          std::uint64_t index_position = 0;
+          for (int b = 7; b >= 0; --b)
+            index_position = (index_position << 8) | static_cast<unsigned char>(head[at + 10 + b]);
+          if (index_position > 0) remaining = index_position;
+        }
+        // The header record's fields: index_pos (8 bytes), conn_count and chunk_count (4 bytes each).
+        const std::size_t header_end = std::min<std::size_t>(static_cast<std::size_t>(got), 4096 + 13);
+        for (const auto& [field, width] : {std::pair<std::string, int>{"index_pos=", 8}, {"conn_count=", 4},
+                                           {"chunk_count=", 4}}) {
+          const auto at = std::string(block.data(), header_end).find(field);
+          if (at != std::string::npos && at + field.size() + width <= header_end)
+            std::fill_n(block.begin() + static_cast<std::ptrdiff_t>(at + field.size()), width, 0);
+        }
+        first = false;
+      }
+      out.write(block.data(), got);
+      remaining -= static_cast<std::uint64_t>(got);
+    }
+    if (!out) return "";
+  }
+  const std::string command = "rosbag reindex --quiet --output-dir " + quoted(*directory) + " " +
+                              quoted(unindexed) + " >/dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  std::remove(unindexed.c_str());
+  if (status != 0) return "";
+  return *directory + "/" + name;
 }
 
 bool makeDirectory(const std::string& path) {
@@ -131,6 +191,7 @@ struct BagPass {
   std::uint64_t without_position = 0;  // JointStates without a position for the cushion
   std::string joint_problem, joint_ambiguity;
   std::string read_error;  // the bag could not be read to the end
+  std::uint64_t read = 0, total = 0;  // messages of the input topics read, and in the index
 };
 
 // Feeds the input topics of `bag` to `analysis` in time order; counts per topic in `input`.
@@ -142,6 +203,7 @@ BagPass readInputs(rosbag::Bag& bag, const std::vector<std::string>& present, co
   try {
     rosbag::View view(bag, rosbag::TopicQuery(present));
     const std::uint64_t total = view.size();
+    pass.total = total;
     log("reading " + std::to_string(total) + " messages (" + std::to_string(static_cast<int>(input.duration)) +
         " s) from " + input.bag);
     std::uint64_t done = 0;
@@ -184,8 +246,9 @@ BagPass readInputs(rosbag::Bag& bag, const std::vector<std::string>& present, co
           ++pass.mismatched;
         }
       }
+      pass.read = ++done;
       // Progress every 2 s on long bags.
-      if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
+      if ((done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
         last_report = std::chrono::steady_clock::now();
         log(std::to_string(100 * done / std::max<std::uint64_t>(total, 1)) + " % read (" + std::to_string(done) +
             " messages)");
@@ -204,11 +267,58 @@ std::string milliseconds(double seconds) {
   return text;
 }
 
-}  // namespace
-}  // namespace die_cushion_ident
+// Opens `path`, or a reindexed copy when its index is missing, cut off or lost (the file then still
+// begins like a bag). Returns whether the analysis covers only what the repair recovered.
+bool openBag(const std::string& path, std::unique_ptr<rosbag::Bag>& opened, std::vector<std::string>* warnings) {
+  opened = std::make_unique<rosbag::Bag>();
+  rosbag::Bag& bag = *opened;
+  struct stat file;
+  if (stat(path.c_str(), &file) != 0) fail(3, "cannot open bag '" + path + "': no such file");
+  if (S_ISDIR(file.st_mode)) fail(3, "cannot open bag '" + path + "': it is a directory");
+  std::string why;
+  try {
+    bag.open(path, rosbag::bagmode::Read);
+    // A bag that lost only its index (cut a few kB before its end) opens as empty: look at the file size.
+    struct stat info;
+    const bool holds_data = stat(path.c_str(), &info) == 0 && info.st_size > 64 * 1024;
+    if (rosbag::View(bag).size() > 0 || !holds_data) return false;
+    why = "it opens as empty although the file holds " + std::to_string(info.st_size / 1024) + " kB";
+    bag.close();
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    if (!looksLikeBag(path)) {
+      fail(3, "'" + path + "' is not a ROS bag (a version 2.0 bag begins with '#ROSBAG V2.0'; rosbag says: " +
+                  e.what() + ")");
+    }
+    why = e.what();
+  }
+  // A bag whose index is missing or lies beyond its end was cut off while recording or copying: recover
+  // what was written, in a temporary copy.
+  std::cerr << "analyze_bag: error: '" << path << "' is not indexed (cut off while recording: " << why
+            << "); recovering what it holds with 'rosbag reindex'\n";
+  std::string directory;
+  const std::string repaired = repairedCopy(path, &directory);
+  try {
+    if (repaired.empty()) throw std::runtime_error("rosbag reindex failed");
+    try {
+      bag.close();  // the failed open leaves the file attached
+    } catch (const std::exception&) {
+    }
+    // A fresh object: a failed open may leave part of the broken index (connections, chunks) behind.
+    auto fresh = std::make_unique<rosbag::Bag>();
+    fresh->open(repaired, rosbag::bagmode::Read);
+    opened = std::move(fresh);
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail(3, "cannot open bag '" + path + "': not indexed and not repairable (" + e.what() + ")");
+  }
+  warnings->push_back("the bag was cut off while recording: the analysis covers the part 'rosbag reindex' recovered");
+  return true;
+}
 
-int main(int argc, char** argv) {
-  using namespace die_cushion_ident;
+int run(int argc, char** argv) {
   const Options options = parseArguments(argc, argv);
   const auto log = [&](const std::string& line) {
     if (!options.quiet) std::cerr << "analyze_bag: " << line << "\n";
@@ -243,33 +353,9 @@ int main(int argc, char** argv) {
     }
   }
 
-  rosbag::Bag bag;
-  std::string repaired_directory;
-  bool partial = false;
-  try {
-    bag.open(options.bag, rosbag::bagmode::Read);
-  } catch (const std::exception& e) {
-    if (!looksLikeBag(options.bag)) fail(3, "cannot open bag '" + options.bag + "': " + e.what());
-    // A bag whose index is missing or lies beyond its end was cut off while recording or copying: recover
-    // what was written, in a temporary copy.
-    std::cerr << "analyze_bag: error: '" << options.bag
-              << "' is not indexed (cut off while recording: " << e.what()
-              << "); recovering what it holds with 'rosbag reindex'\n";
-    const std::string repaired = repairedCopy(options.bag, &repaired_directory);
-    try {
-      if (repaired.empty()) throw std::runtime_error("rosbag reindex failed");
-      try {
-        bag.close();  // the failed open leaves the file attached
-      } catch (const std::exception&) {
-      }
-      bag.open(repaired, rosbag::bagmode::Read);
-    } catch (const std::exception& e) {
-      fail(3, "cannot open bag '" + options.bag + "': not indexed and not repairable (" + e.what() + ")");
-    }
-    partial = true;
-    warnings.push_back(
-        "the bag was cut off while recording: the analysis covers the part 'rosbag reindex' recovered");
-  }
+  std::unique_ptr<rosbag::Bag> opened;
+  bool partial = openBag(options.bag, opened, &warnings);
+  rosbag::Bag& bag = *opened;
 
   // The three inputs: present, and of the contract's types.
   const std::string names[kInputStreamCount] = {topics.pressure, topics.position, topics.valve};
@@ -347,13 +433,16 @@ int main(int argc, char** argv) {
   }
   if (!pass.joint_ambiguity.empty()) warnings.push_back(pass.joint_ambiguity);
   if (!pass.read_error.empty()) {
-    warnings.push_back("the bag could not be read to the end (" + pass.read_error +
-                       "): the analysis covers what was read");
+    char share[64];
+    std::snprintf(share, sizeof(share), "%.1f", 100.0 * pass.read / std::max<std::uint64_t>(pass.total, 1));
+    warnings.push_back("the bag could not be read to the end (" + pass.read_error + "): the analysis covers " +
+                       share + " % of its messages (" + std::to_string(pass.read) + " of " +
+                       std::to_string(pass.total) + "), read before the damage");
     log(warnings.back());
     partial = true;
   }
   bag.close();
-  if (!repaired_directory.empty()) std::system(("rm -rf '" + repaired_directory + "'").c_str());
+  repair_directory.remove();
 
   OfflineResult result = analysis->finish([&](const std::string& step) { log(step); });
   result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
@@ -402,4 +491,21 @@ int main(int argc, char** argv) {
     return 5;
   }
   return 0;
+}
+
+}  // namespace
+}  // namespace die_cushion_ident
+
+int main(int argc, char** argv) {
+  // Every failure ends with a message and an exit code of the contract, never an abort.
+  try {
+    return die_cushion_ident::run(argc, argv);
+  } catch (const std::bad_alloc&) {
+    std::cerr << "analyze_bag: out of memory while analysing (the recording is too long for this machine's "
+                 "memory; analyse it in parts, e.g. rosbag filter by time)\n";
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "analyze_bag: cannot complete the analysis: " << e.what() << "\n";
+    return 3;
+  }
 }

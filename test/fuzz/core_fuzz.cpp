@@ -174,10 +174,11 @@ void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fai
     return;
   }
   SweepRequest request;
-  if (in.byte() & 1)
-    request.frequencies = {in.number(1.0, 200.0), in.number(1.0, 200.0)};
-  else
-    request.frequencies = {20.0, 40.0};
+  if (in.byte() & 1) {
+    for (int k = 0; k < 5; ++k) request.frequencies.push_back(in.number(1.0, 200.0));
+  } else {
+    request.frequencies = {20.0, 40.0, 60.0, 80.0, 100.0};
+  }
   request.amplitude = in.number(0.0, 2.0);
   request.offset = in.number(-2.0, 2.0);
   request.settle_periods = in.number(0.0, 5.0);

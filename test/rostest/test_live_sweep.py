@@ -81,7 +81,7 @@ class LiveSweep(unittest.TestCase):
         self.assertEqual(len(response.fit_frequency), 101)
 
     def test_2_abort_returns_the_valve_and_reports(self):
-        started = self.request(frequencies=[20.0, 40.0], offset=0.2)
+        started = self.request(frequencies=[20.0, 40.0, 60.0, 80.0, 100.0], offset=0.2)
         self.assertTrue(started.success, started.message)
         rospy.sleep(0.3)
         aborted = self.abort()

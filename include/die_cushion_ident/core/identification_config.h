@@ -92,6 +92,9 @@ struct IdentificationConfig {
 
 /// Names of the numeric configuration keys (the same in YAML, ROS parameters and on command lines).
 std::vector<std::string> numericConfigKeys();
+/// A problem with a value before it is set, in words ("" if none): a filter width that is not a whole
+/// number is named as given (31.5), not as the invalid width it would become.
+std::string numericConfigProblem(const std::string& key, double value);
 /// Sets a numeric key (e.g. "forgetting_factor", "piston_area", "max_gap"); false if the key is unknown.
 /// Values are checked later by validate(), so that every problem is reported at once.
 bool setNumericConfigValue(IdentificationConfig& config, const std::string& key, double value);
