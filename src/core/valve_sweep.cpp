@@ -98,17 +98,6 @@ constexpr long kMinSweepFrequencies = 5;
 std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) {
   if (r.frequencies.empty()) return "no frequencies requested";
   if (r.frequencies.size() > 1000) return "more than 1000 frequencies requested";
-  {
-    // The fit of natural frequency, damping, gain and dead time needs five distinct points: refuse now
-    // rather than sweep for minutes and fail at the end.
-    std::vector<double> distinct(r.frequencies);
-    std::sort(distinct.begin(), distinct.end());
-    const auto size = std::unique(distinct.begin(), distinct.end()) - distinct.begin();
-    if (size < kMinSweepFrequencies) {
-      return format("%g distinct frequencies requested: the valve model's fit needs at least 5",
-                    static_cast<double>(size));
-    }
-  }
   for (double f : r.frequencies) {
     if (!std::isfinite(f) || f <= 0.0) return format("frequency %g Hz is invalid: allowed > 0 Hz", f);
     if (f > limits.maxFrequency()) {
@@ -141,6 +130,17 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
   if (r.totalDuration() > limits.max_duration) {
     return format("the sweep would take %.1f s, longer than sweep_max_duration = %g s", r.totalDuration(),
                   limits.max_duration);
+  }
+  {
+    // The fit of natural frequency, damping, gain and dead time needs five distinct points: refuse now
+    // rather than sweep for minutes and fail at the end.
+    std::vector<double> distinct(r.frequencies);
+    std::sort(distinct.begin(), distinct.end());
+    const auto size = std::unique(distinct.begin(), distinct.end()) - distinct.begin();
+    if (size < kMinSweepFrequencies) {
+      return format("%g distinct frequencies requested: the valve model's fit needs at least 5",
+                    static_cast<double>(size));
+    }
   }
   return "";
 }
