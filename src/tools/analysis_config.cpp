@@ -42,17 +42,25 @@ std::vector<std::string> loadAnalysisConfig(const std::string& path, Identificat
   if (stat(path.c_str(), &info) != 0) return {"cannot read config file '" + path + "': it does not exist"};
   if (S_ISDIR(info.st_mode)) return {"config file '" + path + "' is a directory, not a YAML file"};
   if (!std::ifstream(path).good()) return {"cannot read config file '" + path + "' (no permission?)"};
+  std::ifstream file(path);
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  return parseAnalysisConfig(text, path, config, topics, keys_given);
+}
+
+std::vector<std::string> parseAnalysisConfig(const std::string& yaml_text, const std::string& origin,
+                                             IdentificationConfig* config, InputTopics* topics,
+                                             std::vector<std::string>* keys_given) {
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
-    return {"config file '" + path + "' is not valid YAML: " + e.what()};
+    return {"config file '" + origin + "' is not valid YAML: " + e.what()};
   }
   try {
-    return readAnalysisConfig(root, path, config, topics, keys_given);
+    return readAnalysisConfig(root, origin, config, topics, keys_given);
   } catch (const YAML::Exception& e) {
     // A key or value of an unexpected shape (a mapping as a key, a list where a name belongs).
-    return {"config file '" + path + "': unexpected structure (" + e.what() +
+    return {"config file '" + origin + "': unexpected structure (" + e.what() +
             "); keys must be plain names and values numbers, names or the lists README shows"};
   }
 }

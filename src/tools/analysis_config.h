@@ -21,5 +21,9 @@ struct InputTopics {
 /// including unknown keys (a typo must not silently fall back to a default).
 std::vector<std::string> loadAnalysisConfig(const std::string& path, IdentificationConfig* config,
                                             InputTopics* topics, std::vector<std::string>* keys_given);
+/// The same from YAML text (`origin` names it in messages); never throws.
+std::vector<std::string> parseAnalysisConfig(const std::string& yaml_text, const std::string& origin,
+                                             IdentificationConfig* config, InputTopics* topics,
+                                             std::vector<std::string>* keys_given);
 
 }  // namespace die_cushion_ident

@@ -10,6 +10,8 @@
 #include <sys/stat.h>
 
 #include <chrono>
+#include <csetjmp>
+#include <csignal>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -194,18 +196,51 @@ struct BagPass {
   std::uint64_t read = 0, total = 0;  // messages of the input topics read, and in the index
 };
 
+// rosbag reads a corrupted chunk without bounds checks and can crash (SIGSEGV, SIGBUS) inside its own
+// code. While the input topics are read, such a fault ends the reading like a read error: the analysis
+// covers what was read before the damage (exit 5), instead of the program dying.
+sigjmp_buf read_fault;
+volatile sig_atomic_t reading_bag = 0;
+volatile std::uint64_t messages_read = 0, messages_total = 0;
+
+void onReadFault(int signal_number) {
+  if (reading_bag) siglongjmp(read_fault, signal_number);
+  std::signal(signal_number, SIG_DFL);  // not ours: die as the signal means
+  std::raise(signal_number);
+}
+
 // Feeds the input topics of `bag` to `analysis` in time order; counts per topic in `input`.
 BagPass readInputs(rosbag::Bag& bag, const std::vector<std::string>& present, const std::string names[],
                    const std::string& joint_name, OfflineAnalysis& analysis, AnalysisInput& input,
                    const std::function<void(const std::string&)>& log) {
   BagPass pass;
   JointSelector joints(joint_name);
+  struct sigaction fault = {}, old_segv = {}, old_bus = {};
+  fault.sa_handler = onReadFault;
+  sigemptyset(&fault.sa_mask);
+  sigaction(SIGSEGV, &fault, &old_segv);
+  sigaction(SIGBUS, &fault, &old_bus);
+  messages_read = messages_total = 0;
+  if (const int signal_number = sigsetjmp(read_fault, 1); signal_number != 0) {
+    reading_bag = 0;
+    sigaction(SIGSEGV, &old_segv, nullptr);
+    sigaction(SIGBUS, &old_bus, nullptr);
+    pass.read = messages_read;
+    pass.total = messages_total;
+    pass.read_error = std::string("its data is damaged: rosbag failed with ") +
+                      (signal_number == SIGBUS ? "a bus error" : "a segmentation fault") + " reading it";
+    pass.joint_ambiguity = joints.ambiguity();
+    return pass;
+  }
+  reading_bag = 1;
   try {
     rosbag::View view(bag, rosbag::TopicQuery(present));
     const std::uint64_t total = view.size();
     pass.total = total;
-    log("reading " + std::to_string(total) + " messages (" + std::to_string(static_cast<int>(input.duration)) +
-        " s) from " + input.bag);
+    messages_total = total;
+    char span[32];
+    std::snprintf(span, sizeof(span), "%.0f", input.duration);
+    log("reading " + std::to_string(total) + " messages (" + span + " s) from " + input.bag);
     std::uint64_t done = 0;
     auto last_report = std::chrono::steady_clock::now();
     for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = 0;
@@ -247,6 +282,7 @@ BagPass readInputs(rosbag::Bag& bag, const std::vector<std::string>& present, co
         }
       }
       pass.read = ++done;
+      messages_read = done;
       // Progress every 2 s on long bags.
       if ((done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
         last_report = std::chrono::steady_clock::now();
@@ -257,6 +293,9 @@ BagPass readInputs(rosbag::Bag& bag, const std::vector<std::string>& present, co
   } catch (const std::exception& e) {
     pass.read_error = e.what();
   }
+  reading_bag = 0;
+  sigaction(SIGSEGV, &old_segv, nullptr);
+  sigaction(SIGBUS, &old_bus, nullptr);
   pass.joint_ambiguity = joints.ambiguity();
   return pass;
 }
