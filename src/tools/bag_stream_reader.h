@@ -1,0 +1,79 @@
+#pragma once
+
+#include <cstdint>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace die_cushion_ident {
+
+/// Reads a ROS bag (format 2.0) from front to back, chunk by chunk, without loading its index:
+/// - memory does not grow with the recording's length (rosbag::View keeps an index entry of about 64 bytes
+///   per message in memory: 0.7 GB for an hour of three 1 kHz topics);
+/// - every length is checked against what is there, so a damaged or cut-off part ends the reading with a
+///   reason (error()) instead of a crash, and everything before it is delivered;
+/// - a bag cut off while recording (no index) needs no repair: its chunks are read as they are.
+/// Chunks may be uncompressed, bz2 or lz4. Messages come in the order they were recorded.
+class BagStreamReader {
+ public:
+  struct Connection {
+    std::string topic, datatype, md5sum;
+  };
+  struct Message {
+    const Connection* connection = nullptr;
+    double time = 0.0;  ///< [s] when it was recorded (not its header stamp)
+    const std::uint8_t* data = nullptr;
+    std::uint32_t size = 0;
+  };
+
+  /// Opens `path`; throws std::runtime_error saying why when it cannot be read or is no version 2.0 bag.
+  explicit BagStreamReader(const std::string& path);
+
+  /// Calls `on_message` for every message in file order, `on_connection` for every connection when first
+  /// seen. Returns false when the reading ended early (error() says where and why).
+  bool read(const std::function<void(const Message&)>& on_message,
+            const std::function<void(const Connection&)>& on_connection = {});
+
+  const std::string& error() const { return error_; }
+  /// True when the bag ended inside a record (cut off while recording or copying); dataLost() when that
+  /// record was a chunk (messages lost), not the index at the end.
+  bool cutOff() const { return cut_off_; }
+  bool dataLost() const { return data_lost_; }
+  std::uint64_t bytesRead() const { return position_; }
+  std::uint64_t fileSize() const { return file_size_; }
+  std::uint64_t messages() const { return messages_; }
+
+ private:
+  using Fields = std::map<std::string, std::string>;
+  bool readRecord(std::vector<std::uint8_t>* header, std::vector<std::uint8_t>* data, bool* truncated);
+  bool parseRecords(const std::uint8_t* data, std::size_t size, const std::function<void(const Message&)>& on_message,
+                    const std::function<void(const Connection&)>& on_connection);
+  bool addConnection(const Fields& header, const std::uint8_t* data, std::size_t size,
+                     const std::function<void(const Connection&)>& on_connection);
+  bool fail(const std::string& why);
+
+  std::string path_;
+  std::ifstream file_;
+  std::uint64_t file_size_ = 0;
+  std::uint64_t position_ = 0;
+  std::uint64_t messages_ = 0;
+  std::map<std::uint32_t, Connection> connections_;
+  std::string error_;
+  bool cut_off_ = false;
+  bool data_lost_ = false;
+  std::uint64_t index_position_ = 0;  // from the file header: where the index begins (0: none written)
+  std::uint32_t chunk_count_ = 0, chunk_infos_ = 0;
+};
+
+/// Bounds-checked decoding of the serialised messages analyze_bag reads; false for a damaged message (a
+/// length that does not fit), never an exception or a huge allocation.
+bool decodeFluidPressure(const std::uint8_t* data, std::uint32_t size, double* stamp, double* pressure);
+bool decodeValveSignal(const std::uint8_t* data, std::uint32_t size, double* stamp, double* voltage,
+                       double* spool);
+/// JointState: stamp, names, positions and velocities (efforts skipped).
+bool decodeJointState(const std::uint8_t* data, std::uint32_t size, double* stamp, std::vector<std::string>* names,
+                      std::vector<double>* position, std::vector<double>* velocity);
+
+}  // namespace die_cushion_ident
