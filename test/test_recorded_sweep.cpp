@@ -80,6 +80,41 @@ TEST(RecordedSweep, FindsNoSweepInPressCyclesOrInASquareWave) {
   EXPECT_TRUE(detectSweepSegments(square).empty());
 }
 
+// analyze_bag keeps the raw valve signal only where a sweep can be: an hour of strokes must not be stored,
+// a sweep must come through whole (the same points as from the complete signal).
+TEST(SweepCandidateFilter, KeepsTheSweepAndDropsThePressStrokes) {
+  auto plant_config = testing::randomPlant(5);
+  DieCushionSimulator plant(plant_config);
+  std::vector<SimulatedMeasurement> messages;
+  plant.run(8 * plant.program().cycleDuration(), &messages);
+  std::vector<ValveSample> signal;
+  for (const auto& m : messages) {
+    if (m.stream == InputStream::kValve) signal.push_back({m.sample.stamp, m.sample.first, m.sample.second});
+  }
+  const std::size_t strokes = signal.size();
+  const auto truth = randomValve(12);
+  const double shift = signal.back().t + 1.0;
+  for (ValveSample s : recordSweep(cushionAtRest(truth, 12))) {
+    s.t += shift;
+    signal.push_back(s);
+  }
+  SweepCandidateFilter filter;
+  std::vector<ValveSample> kept;
+  for (const auto& s : signal) filter.push(s, &kept);
+  filter.flush(&kept);
+  std::size_t kept_strokes = 0;
+  for (const auto& s : kept) kept_strokes += s.t < shift ? 1 : 0;
+  EXPECT_LT(kept_strokes, strokes / 10) << "at most a tenth of the press strokes' valve messages is kept";
+  for (std::size_t i = 1; i < kept.size(); ++i) ASSERT_GT(kept[i].t, kept[i - 1].t) << "in time order";
+  const RecordedSweep whole = analyzeRecordedSweep(signal), filtered = analyzeRecordedSweep(kept);
+  ASSERT_EQ(whole.points.size(), 16u);
+  ASSERT_EQ(filtered.points.size(), whole.points.size());
+  for (std::size_t i = 0; i < whole.points.size(); ++i) {
+    EXPECT_DOUBLE_EQ(filtered.points[i].magnitude, whole.points[i].magnitude) << whole.points[i].frequency;
+    EXPECT_DOUBLE_EQ(filtered.points[i].phase, whole.points[i].phase);
+  }
+}
+
 TEST(RecordedSweep, HandlesEmptyAndTinyInput) {
   EXPECT_TRUE(detectSweepSegments({}).empty());
   EXPECT_FALSE(analyzeRecordedSweep({}).fit.success);

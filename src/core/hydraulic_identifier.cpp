@@ -117,10 +117,14 @@ bool HydraulicIdentifier::identificationStep() {
   }
   const int n = model_.parameterCount();
   ParameterVector phi(n);
-  for (int j = 0; j < n; ++j) phi(j) = row_.phi[j] * scale_(j) / flow_scale_;
   // A custom term can still explode off the probed range; such a row would poison the covariance for good.
   constexpr double kLargestColumn = 1e100;
-  if (!phi.allFinite() || phi.cwiseAbs().maxCoeff() > kLargestColumn || !std::isfinite(row_.z)) {
+  bool usable = std::isfinite(row_.z);
+  for (int j = 0; j < n; ++j) {
+    phi(j) = row_.phi[j] * scale_(j) / flow_scale_;
+    usable = usable && std::abs(phi(j)) <= kLargestColumn;  // false for NaN too
+  }
+  if (!usable) {
     ++skipped_invalid_;
     return false;
   }

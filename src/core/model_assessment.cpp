@@ -36,7 +36,7 @@ std::string format(const char* pattern, double a, double b = 0.0) {
 // Bins of one signal with fixed edges; labels in the unit users read (bar, m/s, opening).
 std::vector<RegionError> binned(const char* dimension, const std::vector<double>& edges, double display_scale,
                                 const char* unit, const std::vector<GridSample>& grid,
-                                const std::vector<double>& modelled,
+                                const std::vector<float>& modelled,
                                 const std::function<double(const GridSample&)>& of) {
   std::vector<Accumulator> acc(edges.size() - 1);
   for (std::size_t i = 0; i < grid.size(); ++i) {
@@ -121,13 +121,13 @@ ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSeg
                             const HydraulicModel& model, const ParameterVector& parameters,
                             double min_pressure) {
   ModelAssessment a;
-  a.modelled.assign(grid.size(), std::numeric_limits<double>::quiet_NaN());
+  a.modelled.assign(grid.size(), std::numeric_limits<float>::quiet_NaN());
   FreeRunPressure free_run(model, min_pressure);
   Accumulator all, phase[6];
   for (std::size_t i = 0; i < grid.size(); ++i) {
     const double p = free_run.step(grid[i], parameters);
     if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(grid[i].p)) continue;
-    a.modelled[i] = p;
+    a.modelled[i] = static_cast<float>(p);
     const double e = grid[i].p - p;
     all.add(e);
     phase[static_cast<int>(strokes.phase[i])].add(e);

@@ -9,26 +9,26 @@ namespace die_cushion_ident {
 
 OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
   pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) { grid_.push_back(g); });
-  pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) {
-    const HydraulicEstimate e = identifier.estimate();
-    EstimateSample s;
-    s.t = e.t;
-    for (const auto& p : e.parameters) {
-      s.values.push_back(p.value);
-      s.stds.push_back(p.std);
-    }
-    s.equation_error_rms = e.equation_error_rms;
-    estimates_.push_back(std::move(s));
-  });
+  pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
+}
+
+void EstimateSeries::add(const HydraulicEstimate& e) {
+  parameters_ = static_cast<int>(e.parameters.size());
+  t_.push_back(e.t);
+  for (const auto& p : e.parameters) {
+    values_.push_back(static_cast<float>(p.value));
+    stds_.push_back(static_cast<float>(p.std));
+  }
+  equation_error_.push_back(static_cast<float>(e.equation_error_rms));
 }
 
 void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
   ++messages_;
   pipeline_.push(stream, sample);
-  // The sweep analysis wants the raw valve signal, not the 2 ms grid (sweeps reach 160 Hz).
+  // The sweep analysis wants the raw valve signal, not the 2 ms grid (sweeps reach 160 Hz), but only where
+  // the command can be a sweep: hours of press strokes are not kept.
   if (stream == InputStream::kValve && std::isfinite(sample.stamp) && std::isfinite(sample.first)) {
-    if (valve_.empty() || sample.stamp > valve_.back().t)
-      valve_.push_back({sample.stamp, sample.first, sample.second});
+    valve_filter_.push({sample.stamp, sample.first, sample.second}, &valve_);
   }
 }
 
@@ -55,6 +55,11 @@ std::vector<std::string> implausibleParameters(const HydraulicModel& model, cons
     }
   }
   return problems;
+}
+
+void OfflineAnalysis::reserve(double seconds, double max_seconds) {
+  if (!(seconds > 0.0) || !(seconds <= max_seconds)) return;
+  grid_.reserve(static_cast<std::size_t>(1.01 * seconds / config_.resampler.sample_period) + 1000);
 }
 
 TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
@@ -136,7 +141,7 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
     double highest = -std::numeric_limits<double>::infinity();
     for (const GridSample& g : grid_) {
-      if (std::isfinite(g.p)) highest = std::max(highest, g.p);
+      if (std::isfinite(g.p)) highest = std::max(highest, static_cast<double>(g.p));
     }
     if (r.model.updates == 0 && highest < config_.min_pressure) {
       char text[320];
@@ -185,6 +190,7 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     }
   }
 
+  valve_filter_.flush(&valve_);
   if (!valve_.empty()) {
     tell("looking for valve sine sweeps");
     RecordedSweepOptions options;

@@ -172,4 +172,69 @@ RecordedSweep analyzeRecordedSweep(const std::vector<ValveSample>& samples,
   return result;
 }
 
+SweepCandidateFilter::SweepCandidateFilter(double block, double min_amplitude, double spread)
+    : block_(block), min_amplitude_(min_amplitude), spread_(spread) {}
+
+bool SweepCandidateFilter::periodic(const std::vector<ValveSample>& block) const {
+  if (block.size() < 8) return false;
+  double low = block.front().voltage, high = low, mean = 0.0;
+  for (const auto& s : block) {
+    low = std::min(low, s.voltage);
+    high = std::max(high, s.voltage);
+    mean += s.voltage / static_cast<double>(block.size());
+  }
+  const double amplitude = 0.5 * (high - low);
+  if (amplitude < min_amplitude_) return false;
+  const double hysteresis = amplitude / 3.0;
+  std::vector<double> rising;
+  bool below = block.front().voltage < mean - hysteresis;
+  for (const auto& s : block) {
+    if (below && s.voltage > mean + hysteresis) {
+      rising.push_back(s.t);
+      below = false;
+    } else if (!below && s.voltage < mean - hysteresis) {
+      below = true;
+    }
+  }
+  if (rising.size() < 4) return false;
+  // Locally periodic: successive periods agree (a sweep's block may hold several frequencies, a controller's
+  // command crosses at random), allowing for crossings quantised to the message interval.
+  const double interval = (block.back().t - block.front().t) / static_cast<double>(block.size() - 1);
+  int pairs = 0, agreeing = 0;
+  for (std::size_t i = 2; i < rising.size(); ++i) {
+    const double a = rising[i - 1] - rising[i - 2], b = rising[i] - rising[i - 1];
+    ++pairs;
+    if (std::abs(a - b) <= spread_ * std::max(a, b) + 2.0 * interval) ++agreeing;
+  }
+  return agreeing >= 2 && agreeing >= 0.7 * pairs;
+}
+
+void SweepCandidateFilter::closeBlock(std::vector<ValveSample>* kept) {
+  // The previous block is decided now that both its neighbours are known: kept when it or either is periodic.
+  const bool current_periodic = periodic(current_);
+  if (previous_periodic_ || before_periodic_ || current_periodic)
+    kept->insert(kept->end(), previous_.begin(), previous_.end());
+  before_periodic_ = previous_periodic_;
+  previous_periodic_ = current_periodic;
+  previous_.swap(current_);
+  current_.clear();
+}
+
+void SweepCandidateFilter::push(const ValveSample& sample, std::vector<ValveSample>* kept) {
+  const double last = !current_.empty() ? current_.back().t : !previous_.empty() ? previous_.back().t : -INFINITY;
+  if (!(sample.t > last)) return;
+  if (current_.empty()) block_start_ = sample.t;
+  if (sample.t - block_start_ >= block_) {
+    closeBlock(kept);
+    block_start_ = sample.t;
+  }
+  current_.push_back(sample);
+}
+
+void SweepCandidateFilter::flush(std::vector<ValveSample>* kept) {
+  closeBlock(kept);  // decides the previous block with the current as its neighbour
+  closeBlock(kept);  // and the current one itself
+  previous_.clear();
+}
+
 }  // namespace die_cushion_ident

@@ -31,7 +31,7 @@ StrokePhase StrokePhaseClassifier::classify(const GridSample& s) {
   dp_filtered_ += k * ((s.p - p_) / dt - dp_filtered_);
   t_ = s.t;
   p_ = s.p;
-  deepest_ = std::max(deepest_, s.x);
+  deepest_ = std::max(deepest_, static_cast<double>(s.x));
 
   const double v = v_filtered_;
   const bool lower_part = deepest_ > config_.min_stroke && s.x > 0.5 * deepest_;
@@ -44,7 +44,7 @@ StrokePhase StrokePhaseClassifier::classify(const GridSample& s) {
   } else if (lower_part) {
     // Releasing: the pressure falls by a large fraction of itself per second (the pressure controller
     // holds it steady at the bottom otherwise); once releasing, until it stops falling.
-    const double fall_rate = -dp_filtered_ / std::max(s.p, 10e5);
+    const double fall_rate = -dp_filtered_ / std::max(static_cast<double>(s.p), 10e5);
     const bool falling =
         fall_rate > config_.release_rate || (phase_ == StrokePhase::kRelease && fall_rate > 0.0);
     phase_ = falling ? StrokePhase::kRelease : StrokePhase::kBottomHold;

@@ -255,14 +255,19 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
   }
   estimates_csv << ",equation_error_rms\n";
   estimates_csv.precision(10);
-  for (const auto& e : r.estimates) {
-    ParameterEstimate msg = toParameterEstimateMsg(model, e.values, e.stds, stampOf(e.t));
-    msg.equation_error_rms = e.equation_error_rms;
+  const EstimateSeries& series = r.estimates;
+  std::vector<double> values(series.parameters()), stds(series.parameters());
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    for (int j = 0; j < series.parameters(); ++j) {
+      values[j] = series.value(k, j);
+      stds[j] = series.std(k, j);
+    }
+    ParameterEstimate msg = toParameterEstimateMsg(model, values, stds, stampOf(series.t(k)));
+    msg.equation_error_rms = series.equationError(k);
     bag.write("/die_cushion_ident/estimate", msg.header.stamp, msg);
-    estimates_csv << Stamp{e.t};
-    for (std::size_t i = 0; i < e.values.size(); ++i)
-      estimates_csv << "," << Field{e.values[i]} << "," << Field{e.stds[i]};
-    estimates_csv << "," << Field{e.equation_error_rms} << "\n";
+    estimates_csv << Stamp{series.t(k)};
+    for (int j = 0; j < series.parameters(); ++j) estimates_csv << "," << Field{values[j]} << "," << Field{stds[j]};
+    estimates_csv << "," << Field{msg.equation_error_rms} << "\n";
   }
   closeChecked(estimates_csv, directory + "/estimates.csv");
 

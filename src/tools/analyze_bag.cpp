@@ -134,6 +134,8 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
     fail(3, std::string("cannot open bag: ") + e.what());
   }
   pass.file_size = reader->fileSize();
+  // A hint from the index, bounded by what the file can hold (a message is at least ~40 bytes on disk).
+  analysis.reserve(reader->indexedSpan(), 48 * 3600.0);
   log("reading " + std::to_string(pass.file_size >> 20) + " MB from " + input.bag);
   for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = 0;
   auto last_report = std::chrono::steady_clock::now();

@@ -3,7 +3,10 @@
 #include <bzlib.h>
 #include <roslz4/lz4s.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 
 namespace die_cushion_ident {
@@ -98,6 +101,57 @@ BagStreamReader::BagStreamReader(const std::string& path) : path_(path), file_(p
     throw std::runtime_error("'" + path + "' is not a ROS bag (a version 2.0 bag begins with '#ROSBAG V2.0')");
   }
   position_ = kMagicSize;
+}
+
+double BagStreamReader::indexedSpan() const {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::ifstream file(path_, std::ios::binary);
+  std::vector<std::uint8_t> buffer(4096 + 64);
+  file.seekg(static_cast<std::streamoff>(kMagicSize));
+  file.read(reinterpret_cast<char*>(buffer.data()), static_cast<std::streamsize>(buffer.size()));
+  if (file.gcount() < 8) return kNaN;
+  const std::uint32_t header_length = readU32(buffer.data());
+  Fields header;
+  if (header_length + 4u > static_cast<std::uint32_t>(file.gcount()) ||
+      !parseFields(buffer.data() + 4, header_length, &header) || header["index_pos"].size() != 8) {
+    return kNaN;
+  }
+  const auto* b = reinterpret_cast<const std::uint8_t*>(header["index_pos"].data());
+  const std::uint64_t index = readU32(b) | static_cast<std::uint64_t>(readU32(b + 4)) << 32;
+  if (index == 0 || index >= file_size_) return kNaN;
+  // The index: connection, index data and chunk info records to the end of the file.
+  file.clear();
+  file.seekg(static_cast<std::streamoff>(index));
+  double first = kNaN, last = kNaN;
+  std::uint64_t at = index;
+  std::vector<std::uint8_t> record;
+  while (at + 8 <= file_size_) {
+    std::uint8_t length[4];
+    file.read(reinterpret_cast<char*>(length), 4);
+    const std::uint32_t h = readU32(length);
+    if (!file || h > kMaxRecord || at + 8 + h > file_size_) break;
+    record.resize(h);
+    file.read(reinterpret_cast<char*>(record.data()), h);
+    file.read(reinterpret_cast<char*>(length), 4);
+    const std::uint32_t d = readU32(length);
+    if (!file || d > kMaxRecord || at + 8 + h + d > file_size_) break;
+    file.seekg(d, std::ios::cur);
+    at += 8 + h + d;
+    Fields fields;
+    if (!parseFields(record.data(), h, &fields) || fields["op"].size() != 1 ||
+        static_cast<std::uint8_t>(fields["op"][0]) != kOpChunkInfo) {
+      continue;
+    }
+    const std::string& start = fields["start_time"];
+    const std::string& end = fields["end_time"];
+    if (start.size() != 8 || end.size() != 8) continue;
+    const auto* s = reinterpret_cast<const std::uint8_t*>(start.data());
+    const auto* e = reinterpret_cast<const std::uint8_t*>(end.data());
+    const double t0 = readU32(s) + 1e-9 * readU32(s + 4), t1 = readU32(e) + 1e-9 * readU32(e + 4);
+    first = std::isnan(first) ? t0 : std::min(first, t0);
+    last = std::isnan(last) ? t1 : std::max(last, t1);
+  }
+  return last - first;
 }
 
 bool BagStreamReader::fail(const std::string& why) {

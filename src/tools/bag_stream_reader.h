@@ -36,6 +36,10 @@ class BagStreamReader {
   bool read(const std::function<void(const Message&)>& on_message,
             const std::function<void(const Connection&)>& on_connection = {});
 
+  /// [s] the recording's span from the index at the end of the file (chunk start and end times), without
+  /// reading the messages; NaN when the bag has no (readable) index. A hint for reserving memory.
+  double indexedSpan() const;
+
   const std::string& error() const { return error_; }
   /// True when the bag ended inside a record (cut off while recording or copying); dataLost() when that
   /// record was a chunk (messages lost), not the index at the end.

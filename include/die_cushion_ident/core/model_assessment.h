@@ -35,7 +35,7 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid);
 struct ModelAssessment {
   int samples = 0;                    ///< grid samples compared (model running free, not re-anchored)
   double simulation_error_rms = 0.0;  ///< [Pa]
-  std::vector<double> modelled;       ///< [Pa] per grid sample; NaN where the model is not running
+  std::vector<float> modelled;        ///< [Pa] per grid sample; NaN where the model is not running
   std::vector<RegionError> by_phase, by_pressure, by_velocity, by_opening;
   /// The worst regions in words, e.g. "the model under-predicts the pressure during bottom_hold by 38 bar".
   std::vector<std::string> worst_regions;

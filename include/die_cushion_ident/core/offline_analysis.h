@@ -15,11 +15,23 @@
 
 namespace die_cushion_ident {
 
-/// The online estimate at one identification step (for the time series in analysis.bag and CSV).
-struct EstimateSample {
-  double t = 0.0;
-  std::vector<double> values, stds;
-  double equation_error_rms = 0.0;
+/// The online estimate at every identification step (for the time series in analysis.bag and CSV), stored
+/// flat in single precision: 100 steps per second over hours must not cost more than the grid itself
+/// (a vector pair per step was ~160 bytes; this is 8 + 4 (2n + 1)).
+class EstimateSeries {
+ public:
+  void add(const HydraulicEstimate& e);
+  std::size_t size() const { return t_.size(); }
+  int parameters() const { return parameters_; }
+  double t(std::size_t i) const { return t_[i]; }
+  double value(std::size_t i, int j) const { return values_[i * parameters_ + j]; }
+  double std(std::size_t i, int j) const { return stds_[i * parameters_ + j]; }
+  double equationError(std::size_t i) const { return equation_error_[i]; }
+
+ private:
+  int parameters_ = 0;
+  std::vector<double> t_;
+  std::vector<float> values_, stds_, equation_error_;
 };
 
 /// Everything analyze_bag reports.
@@ -34,7 +46,7 @@ struct OfflineResult {
   StrokeSegmentation strokes;
   ModelAssessment assessment;
   EffectRankingResult ranking;
-  std::vector<EstimateSample> estimates;
+  EstimateSeries estimates;
   std::optional<RecordedSweep> valve;  ///< present when the recording holds a sine sweep
   std::array<StreamHealth, kInputStreamCount> health;
   std::uint64_t restarts = 0;
@@ -62,6 +74,9 @@ class OfflineAnalysis {
   explicit OfflineAnalysis(const IdentificationConfig& config);
 
   void push(InputStream stream, const StreamSample& sample);
+  /// Reserves the grid for a recording of about `seconds` (a hint: growth by doubling would hold up to twice
+  /// the memory an hour of grid needs). Ignored when not finite or beyond `max_seconds`.
+  void reserve(double seconds, double max_seconds);
   /// Ends the input and estimates the topics' clock offsets from the grid (TopicDelayEstimator). A caller
   /// that finds them significant analyses the recording again with config.topic_delays set.
   TopicDelayEstimate estimateTopicDelays();
@@ -76,7 +91,8 @@ class OfflineAnalysis {
   IdentificationPipeline pipeline_;
   std::vector<GridSample> grid_;
   std::vector<ValveSample> valve_;
-  std::vector<EstimateSample> estimates_;
+  EstimateSeries estimates_;
+  SweepCandidateFilter valve_filter_;
   std::uint64_t messages_ = 0;
   bool flushed_ = false;
 };

@@ -1,12 +1,13 @@
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace die_cushion_ident {
 
 /// Phases of a die-cushion stroke; names are used in reports and summary.yaml.
-enum class StrokePhase { kRest, kImpact, kDrawing, kBottomHold, kRelease, kReturn };
+enum class StrokePhase : std::uint8_t { kRest, kImpact, kDrawing, kBottomHold, kRelease, kReturn };
 const char* strokePhaseName(StrokePhase phase);
 
 /// A press cycle as the cushion sees it: rest at pre-pressure, impact of the ram, drawing at ram speed with a

@@ -42,6 +42,29 @@ struct RecordedSweepOptions {
 std::vector<SweepSegment> detectSweepSegments(const std::vector<ValveSample>& samples,
                                               const RecordedSweepOptions& options = {});
 
+/// Keeps the raw valve signal only where it can hold a sine sweep, so that an offline analysis of hours of
+/// press strokes does not store every valve message: the signal is cut into blocks of `block` seconds; a
+/// block is kept when its command crosses its mean upwards at least four times (with hysteresis at a third
+/// of its amplitude, amplitude >= min_amplitude) and at least 70 % of successive periods agree within
+/// `spread` (plus two message intervals of quantisation), together with the block before and the one after
+/// it (a segment's edges). Samples go out in time order.
+class SweepCandidateFilter {
+ public:
+  explicit SweepCandidateFilter(double block = 2.0, double min_amplitude = 0.01, double spread = 0.1);
+  /// Adds one valve message; appends kept samples to `kept`. Messages not later than the previous are dropped.
+  void push(const ValveSample& sample, std::vector<ValveSample>* kept);
+  void flush(std::vector<ValveSample>* kept);
+
+ private:
+  bool periodic(const std::vector<ValveSample>& block) const;
+  void closeBlock(std::vector<ValveSample>* kept);
+
+  double block_, min_amplitude_, spread_;
+  std::vector<ValveSample> previous_, current_;
+  bool before_periodic_ = false, previous_periodic_ = false;  // the blocks before the current one
+  double block_start_ = 0.0;
+};
+
 struct RecordedSweep {
   std::vector<SweepSegment> segments;
   std::vector<FrequencyResponsePoint> points;  ///< one per segment with enough settled periods
