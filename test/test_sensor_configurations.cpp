@@ -6,6 +6,8 @@
 // all 32 (DCI_SENSOR_MATRIX=full). Plus the edges: three strokes, no complete stroke, a sweep from a
 // continuous signal generator.
 #include <gtest/gtest.h>
+
+#include "tool_runner.h"
 #include <sys/wait.h>
 #include <yaml-cpp/yaml.h>
 
@@ -24,17 +26,10 @@ const std::string kWork = "/tmp/die_cushion_ident_test_sensor_configurations";
 // The simulator's pressure sensor noise [Pa] (SensorConfig::pressure_noise).
 constexpr double kPressureNoise = 0.2e5;
 
-struct CommandResult {
-  int status;
-  std::string output;
-};
+using die_cushion_ident::testing::CommandResult;
 
 CommandResult run(const std::string& command) {
-  const std::string log = kWork + "/last_output.txt";
-  const int raw = std::system((command + " > " + log + " 2>&1").c_str());
-  std::ifstream in(log);
-  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1,
-          std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>())};
+  return die_cushion_ident::testing::runCommand(command, kWork + "/last_output.txt");
 }
 
 // One way a press may deliver its signals.

@@ -15,27 +15,9 @@ from sensor_msgs.msg import FluidPressure, JointState
 
 from die_cushion_ident.msg import ModelComparison, ParameterEstimate, ValveSignal
 from die_cushion_ident.srv import SetEffects
+from rostest_helpers import Latest, value
 
 NS = "/die_cushion/ident/"
-
-
-class Latest:
-    def __init__(self, topic, msg_type):
-        self.lock = threading.Lock()
-        self.msg = None
-        rospy.Subscriber(topic, msg_type, self._store)
-
-    def _store(self, msg):
-        with self.lock:
-            self.msg = msg
-
-    def get(self):
-        with self.lock:
-            return self.msg
-
-
-def value(msg, name):
-    return msg.values[list(msg.names).index(name)]
 
 
 class HostileLive(unittest.TestCase):

@@ -10,25 +10,9 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from die_cushion_ident.msg import EffectRanking, ModelComparison, ParameterEstimate
 from die_cushion_ident.srv import SetEffects, StartSweep
+from rostest_helpers import Latest, value
 
 NS = "/die_cushion/ident/"
-
-
-class Latest:
-    """The newest message of a topic (thread-safe)."""
-
-    def __init__(self, topic, msg_type):
-        self._lock = threading.Lock()
-        self._msg = None
-        self._sub = rospy.Subscriber(topic, msg_type, self._store)
-
-    def _store(self, msg):
-        with self._lock:
-            self._msg = msg
-
-    def get(self):
-        with self._lock:
-            return self._msg
 
 
 def wait_for(predicate, timeout, what):
@@ -38,10 +22,6 @@ def wait_for(predicate, timeout, what):
             return
         rospy.sleep(0.2)
     raise AssertionError("timed out (%.0f s sim time) waiting for %s" % (timeout, what))
-
-
-def value(msg, name):
-    return msg.values[list(msg.names).index(name)]
 
 
 class LiveIdentification(unittest.TestCase):
