@@ -109,9 +109,12 @@ double tQuantile(double p, int df) {
 // Pressure sensor noise from the grid: second differences of a smooth signal are noise (MAD, robust to
 // the fast transients at impact and release).
 double noiseRms(const std::vector<GridSample>& grid) {
+  // At most about 200 000 differences: the median is as good, and an hour's grid needs no 14 MB copy.
+  constexpr std::size_t kMostDifferences = 200000;
+  const std::size_t stride = std::max<std::size_t>(1, grid.size() / kMostDifferences);
   std::vector<double> d;
-  d.reserve(grid.size());
-  for (std::size_t i = 2; i < grid.size(); ++i) {
+  d.reserve(grid.size() / stride + 1);
+  for (std::size_t i = 2; i < grid.size(); i += stride) {
     const double v = grid[i].p - 2 * grid[i - 1].p + grid[i - 2].p;
     if (std::isfinite(v) && !grid[i].discontinuity && !grid[i - 1].discontinuity) d.push_back(std::abs(v));
   }
@@ -143,20 +146,17 @@ HeldOut heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentat
     FreeRunPressure free_run(model, config.min_pressure);
     std::vector<double> sum(strokes.cycles, 0.0);
     std::vector<int> count(strokes.cycles, 0);
-    bool inside = false;
-    for (std::size_t i = 0; i < grid.size(); ++i) {
-      const int c = strokes.cycle[i];
-      if (c < test_first || c > test_last) {
-        inside = false;
-        continue;
+    const std::size_t stretch_begin = strokes.range(test_first, test_last).first;
+    for (int c = test_first; c <= test_last; ++c) {
+      const auto [begin, end] = strokes.range(c, c);
+      for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
+        GridSample g = grid[i];
+        if (i == stretch_begin) g.discontinuity = true;  // start anchored at each held-out stretch
+        const double p = free_run.step(g, theta);
+        if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
+        sum[c] += (g.p - p) * (g.p - p);
+        ++count[c];
       }
-      GridSample g = grid[i];
-      if (!inside) g.discontinuity = true;  // start anchored at each held-out stretch
-      inside = true;
-      const double p = free_run.step(g, theta);
-      if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
-      sum[c] += (g.p - p) * (g.p - p);
-      ++count[c];
     }
     for (int c = test_first; c <= test_last; ++c) {
       if (count[c] == 0) continue;
@@ -176,16 +176,11 @@ HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeS
   IdentificationConfig batch = config;
   batch.forgetting_factor = 1.0;  // constant parameters over the whole stretch: least squares
   HydraulicIdentifier identifier(batch);
-  bool inside = false;
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    const int c = strokes.cycle[i];
-    if (c < first_cycle || c > last_cycle) {
-      inside = false;
-      continue;
-    }
+  // The cycles are one contiguous stretch of the grid.
+  const auto [begin, end] = strokes.range(first_cycle, last_cycle);
+  for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
     GridSample g = grid[i];
-    if (!inside) g.discontinuity = true;
-    inside = true;
+    if (i == begin) g.discontinuity = true;
     identifier.push(g);
   }
   return identifier.estimate();

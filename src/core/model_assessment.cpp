@@ -33,36 +33,45 @@ std::string format(const char* pattern, double a, double b = 0.0) {
   return buffer;
 }
 
-// Bins of one signal with fixed edges; labels in the unit users read (bar, m/s, opening).
-std::vector<RegionError> binned(const char* dimension, const std::vector<double>& edges, double display_scale,
-                                const char* unit, const std::vector<GridSample>& grid,
-                                const std::vector<float>& modelled,
-                                const std::function<double(const GridSample&)>& of) {
-  std::vector<Accumulator> acc(edges.size() - 1);
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    if (!std::isfinite(modelled[i])) continue;
-    const double value = of(grid[i]);
-    if (!std::isfinite(value)) continue;
-    const auto it = std::upper_bound(edges.begin(), edges.end(), value);
-    if (it == edges.begin() || it == edges.end()) continue;
-    acc[it - edges.begin() - 1].add(grid[i].p - modelled[i]);
+// The free-run error in bins of one signal with fixed edges, accumulated sample by sample; labels in the
+// unit users read (bar, m/s, opening).
+class RegionBins {
+ public:
+  RegionBins(const char* dimension, std::vector<double> edges, double display_scale, const char* unit)
+      : dimension_(dimension), edges_(std::move(edges)), scale_(display_scale), unit_(unit), acc_(edges_.size() - 1) {}
+
+  void add(double value, double error) {
+    if (!std::isfinite(value)) return;
+    const auto it = std::upper_bound(edges_.begin(), edges_.end(), value);
+    if (it == edges_.begin() || it == edges_.end()) return;
+    acc_[it - edges_.begin() - 1].add(error);
   }
-  std::vector<RegionError> out;
-  for (std::size_t b = 0; b < acc.size(); ++b) {
-    if (acc[b].n == 0) continue;
-    RegionError r;
-    r.dimension = dimension;
-    r.low = edges[b];
-    r.high = edges[b + 1];
-    r.label = format("%g", r.low * display_scale) + "..." + format("%g", r.high * display_scale) +
-              (unit[0] != '\0' ? std::string(" ") + unit : std::string());
-    r.samples = acc[b].n;
-    r.rms = std::sqrt(acc[b].sum_squares / acc[b].n);
-    r.mean_residual = acc[b].sum / acc[b].n;
-    out.push_back(r);
+
+  std::vector<RegionError> regions() const {
+    std::vector<RegionError> out;
+    for (std::size_t b = 0; b < acc_.size(); ++b) {
+      if (acc_[b].n == 0) continue;
+      RegionError r;
+      r.dimension = dimension_;
+      r.low = edges_[b];
+      r.high = edges_[b + 1];
+      r.label = format("%g", r.low * scale_) + "..." + format("%g", r.high * scale_) +
+                (unit_[0] != '\0' ? std::string(" ") + unit_ : std::string());
+      r.samples = acc_[b].n;
+      r.rms = std::sqrt(acc_[b].sum_squares / acc_[b].n);
+      r.mean_residual = acc_[b].sum / acc_[b].n;
+      out.push_back(r);
+    }
+    return out;
   }
-  return out;
-}
+
+ private:
+  const char* dimension_;
+  std::vector<double> edges_;
+  double scale_;
+  const char* unit_;
+  std::vector<Accumulator> acc_;
+};
 
 std::string where(const RegionError& r) {
   if (r.dimension == "phase") return "during " + r.label;
@@ -76,7 +85,7 @@ std::string where(const RegionError& r) {
 StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
   StrokeSegmentation s;
   s.phase.resize(grid.size());
-  s.cycle.resize(grid.size());
+  s.samples = grid.size();
   StrokePhaseClassifier classifier;
   int cycle = -1;
   // A recording may start mid-stroke: drawing seen first is not an impact, only drawing after a rest of a
@@ -98,6 +107,7 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
     rest_samples = phase == StrokePhase::kRest ? rest_samples + 1 : 0;
     if (impact && previous != StrokePhase::kImpact && previous != StrokePhase::kDrawing) {
       ++cycle;
+      s.cycle_start.push_back(i);
       returned = false;
       impact_x = deepest = std::isfinite(grid[i].x) ? grid[i].x : 0.0;
     }
@@ -107,7 +117,6 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
       deepest = std::max(deepest, last_x);
     }
     s.phase[i] = phase;
-    s.cycle[i] = cycle;
     previous = phase;
   }
   const double stroke = deepest - impact_x;
@@ -117,20 +126,44 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
   return s;
 }
 
+std::pair<std::size_t, std::size_t> StrokeSegmentation::range(int first, int last) const {
+  const int impacts = static_cast<int>(cycle_start.size());
+  const std::size_t begin = first <= -1 ? 0 : first >= impacts ? samples : cycle_start[first];
+  const std::size_t end = last < -1 ? 0 : last == -1 ? (impacts > 0 ? cycle_start[0] : samples)
+                          : last >= impacts - 1 ? samples
+                                                : cycle_start[static_cast<std::size_t>(last) + 1];
+  return {begin, std::max(begin, end)};
+}
+
+int StrokeSegmentation::cycleOf(std::size_t i) const {
+  return static_cast<int>(std::upper_bound(cycle_start.begin(), cycle_start.end(), i) - cycle_start.begin()) - 1;
+}
+
 ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                             const HydraulicModel& model, const ParameterVector& parameters,
                             double min_pressure) {
   ModelAssessment a;
-  a.modelled.assign(grid.size(), std::numeric_limits<float>::quiet_NaN());
+  // The statistics are accumulated sample by sample; only every kModelledStride-th free-run value is kept
+  // (the comparison series that is written), so that an hour's assessment does not hold 1.8 M values.
+  a.modelled.reserve(grid.size() / ModelAssessment::kModelledStride + 1);
+  RegionBins pressure("pressure", {-1e5, 20e5, 50e5, 100e5, 150e5, 200e5, 400e5, 2000e5}, 1e-5, "bar");
+  RegionBins velocity("velocity", {-10, -0.1, -0.02, -0.002, 0.002, 0.02, 0.1, 10}, 1.0, "m/s");
+  RegionBins opening("opening", {-1.0, -0.5, -0.2, -0.05, 0.0, 0.05, 0.2, 0.5, 1.0 + 1e-9}, 1.0, "");
   FreeRunPressure free_run(model, min_pressure);
   Accumulator all, phase[6];
   for (std::size_t i = 0; i < grid.size(); ++i) {
     const double p = free_run.step(grid[i], parameters);
-    if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(grid[i].p)) continue;
-    a.modelled[i] = static_cast<float>(p);
-    const double e = grid[i].p - p;
+    const bool compared = std::isfinite(p) && !free_run.anchoredThisStep() && std::isfinite(grid[i].p);
+    if (i % ModelAssessment::kModelledStride == 0)
+      a.modelled.push_back(compared ? static_cast<float>(p) : std::numeric_limits<float>::quiet_NaN());
+    if (!compared) continue;
+    const GridSample& g = grid[i];
+    const double e = g.p - p;
     all.add(e);
     phase[static_cast<int>(strokes.phase[i])].add(e);
+    pressure.add(g.p, e);
+    velocity.add(g.v, e);
+    opening.add(g.y, e);
   }
   a.samples = all.n;
   a.simulation_error_rms = all.n > 0 ? std::sqrt(all.sum_squares / all.n) : 0.0;
@@ -145,12 +178,9 @@ ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSeg
     r.mean_residual = phase[k].sum / phase[k].n;
     a.by_phase.push_back(r);
   }
-  a.by_pressure = binned("pressure", {-1e5, 20e5, 50e5, 100e5, 150e5, 200e5, 400e5, 2000e5}, 1e-5, "bar",
-                         grid, a.modelled, [](const GridSample& g) { return g.p; });
-  a.by_velocity = binned("velocity", {-10, -0.1, -0.02, -0.002, 0.002, 0.02, 0.1, 10}, 1.0, "m/s", grid,
-                         a.modelled, [](const GridSample& g) { return g.v; });
-  a.by_opening = binned("opening", {-1.0, -0.5, -0.2, -0.05, 0.0, 0.05, 0.2, 0.5, 1.0 + 1e-9}, 1.0, "", grid,
-                        a.modelled, [](const GridSample& g) { return g.y; });
+  a.by_pressure = pressure.regions();
+  a.by_velocity = velocity.regions();
+  a.by_opening = opening.regions();
 
   // The worst regions with at least 1 % of the samples, worst first, each dimension once.
   std::vector<const RegionError*> regions;

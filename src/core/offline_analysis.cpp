@@ -12,6 +12,13 @@ OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(c
   pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
 }
 
+void EstimateSeries::reserve(std::size_t steps, int parameters) {
+  t_.reserve(steps);
+  values_.reserve(steps * static_cast<std::size_t>(parameters));
+  stds_.reserve(steps * static_cast<std::size_t>(parameters));
+  equation_error_.reserve(steps);
+}
+
 void EstimateSeries::add(const HydraulicEstimate& e) {
   parameters_ = static_cast<int>(e.parameters.size());
   t_.push_back(e.t);
@@ -60,6 +67,8 @@ std::vector<std::string> implausibleParameters(const HydraulicModel& model, cons
 void OfflineAnalysis::reserve(double seconds, double max_seconds) {
   if (!(seconds > 0.0) || !(seconds <= max_seconds)) return;
   grid_.reserve(static_cast<std::size_t>(1.01 * seconds / config_.resampler.sample_period) + 1000);
+  estimates_.reserve(static_cast<std::size_t>(1.01 * seconds / config_.identification_period) + 100,
+                     pipeline_.identifier().model().parameterCount());
 }
 
 TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {

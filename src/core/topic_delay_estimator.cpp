@@ -14,8 +14,8 @@ constexpr int kRegressors = 8;
 // the balance is nonlinear (sqrt(p) y, (s - x) dp/dt), so smoothing the signals before forming the products
 // biases the offset near the impact (measured: +-4/2 samples gave up to 0.4 ms, +-2/1 within 0.07 ms).
 // The timing matters that much: 0.1 ms of position timing is 20 um of stroke at 0.2 m/s, 0.8 bar.
-constexpr int kSmoothing = 2;
-constexpr int kDifference = 1;
+constexpr std::size_t kSmoothing = 2;
+constexpr std::size_t kDifference = 1;
 // The fit uses at most this many excited samples (two minutes, some 60 strokes): the offset is constant,
 // and more samples only cost time.
 constexpr std::size_t kMaxSamples = 60000;
@@ -23,42 +23,41 @@ constexpr std::size_t kMaxSamples = 60000;
 // last tens of milliseconds).
 constexpr double kCoarseStep = 0.004;
 
-// The grid's signals as plain arrays, smoothed alike; NaN where a sample is unusable.
+// The grid's signals as plain arrays, smoothed alike; NaN where a sample is unusable. Single precision
+// like the grid itself: these arrays are built while an hour's grid is in memory.
 struct Signals {
-  std::vector<double> p, dp, x, v, y;
+  std::vector<float> p, dp, x, v, y;
 };
 
-std::vector<double> smoothed(const std::vector<double>& in) {
-  std::vector<double> out(in.size(), std::numeric_limits<double>::quiet_NaN());
-  const int n = static_cast<int>(in.size());
-  for (int i = kSmoothing; i + kSmoothing < n; ++i) {
+template <typename Channel>
+std::vector<float> smoothed(const std::vector<GridSample>& grid, std::size_t n, Channel channel) {
+  std::vector<float> out(n, std::numeric_limits<float>::quiet_NaN());
+  for (std::size_t i = kSmoothing; i + kSmoothing < n; ++i) {
     double sum = 0.0;
-    for (int j = -kSmoothing; j <= kSmoothing; ++j) sum += in[i + j];  // NaN spreads: a gap stays a gap
-    out[i] = sum / (2 * kSmoothing + 1);
+    for (std::size_t j = i - kSmoothing; j <= i + kSmoothing; ++j) {
+      // A restart of the time base is a gap for the smoothing and the shifts; NaN spreads: a gap stays one.
+      const GridSample& g = grid[j];
+      sum += g.complete && !g.discontinuity ? static_cast<double>(channel(g)) : NAN;
+    }
+    out[i] = static_cast<float>(sum / (2 * kSmoothing + 1));
   }
   return out;
 }
 
 Signals prepare(const std::vector<GridSample>& grid, std::size_t n, double dt) {
-  std::vector<double> p(n), x(n), v(n), y(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const GridSample& g = grid[i];
-    // A restart of the time base is a gap for the smoothing and the shifts.
-    const bool ok = g.complete && !g.discontinuity;
-    p[i] = ok ? g.p : NAN;
-    x[i] = ok ? g.x : NAN;
-    v[i] = ok ? g.v : NAN;
-    y[i] = ok ? g.y : NAN;
-  }
-  Signals s{smoothed(p), {}, smoothed(x), smoothed(v), smoothed(y)};
-  s.dp.assign(n, std::numeric_limits<double>::quiet_NaN());
+  Signals s{smoothed(grid, n, [](const GridSample& g) { return g.p; }), {},
+            smoothed(grid, n, [](const GridSample& g) { return g.x; }),
+            smoothed(grid, n, [](const GridSample& g) { return g.v; }),
+            smoothed(grid, n, [](const GridSample& g) { return g.y; })};
+  s.dp.assign(n, std::numeric_limits<float>::quiet_NaN());
   for (std::size_t i = kDifference; i + kDifference < n; ++i)
-    s.dp[i] = (s.p[i + kDifference] - s.p[i - kDifference]) / (2 * kDifference * dt);
+    s.dp[i] = static_cast<float>((static_cast<double>(s.p[i + kDifference]) - s.p[i - kDifference]) /
+                                 (2 * kDifference * dt));
   return s;
 }
 
 // Channel value at sample i + shift (shift in samples, fractional: linear interpolation).
-double at(const std::vector<double>& c, std::size_t i, double shift) {
+double at(const std::vector<float>& c, std::size_t i, double shift) {
   const double position = static_cast<double>(i) + shift;
   const double lower = std::floor(position);
   if (lower < 0.0 || lower + 1.0 >= static_cast<double>(c.size())) return NAN;

@@ -20,7 +20,7 @@ namespace die_cushion_ident {
 
 namespace {
 
-constexpr int kComparisonDecimation = 5;  // 2 ms grid -> 100 Hz in analysis.bag and CSV
+constexpr std::size_t kComparisonDecimation = 5;  // 2 ms grid -> 100 Hz in analysis.bag and CSV
 
 // Stamps are seconds since 1970: microseconds need 16 digits, more than the values' 10.
 struct Stamp {
@@ -274,11 +274,14 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
   std::ofstream comparison_csv(directory + "/model_comparison.csv");
   comparison_csv << "t,measured_pressure,modelled_pressure,residual,position,velocity,spool_position,phase\n";
   comparison_csv.precision(10);
-  const auto& modelled = r.assessment.modelled;
-  for (std::size_t i = 0; i < grid.size() && i < modelled.size(); i += kComparisonDecimation) {
+  const auto& modelled = r.assessment.modelled;  // every kModelledStride-th grid sample
+  static_assert(kComparisonDecimation == ModelAssessment::kModelledStride, "the comparison series is the stored one");
+  for (std::size_t k = 0; k < modelled.size(); ++k) {
+    const std::size_t i = k * ModelAssessment::kModelledStride;
+    if (i >= grid.size()) break;
     const GridSample& g = grid[i];
     const ModelComparison msg =
-        toModelComparisonMsg(g, modelled[i], r.strokes.phase[i], r.assessment.simulation_error_rms,
+        toModelComparisonMsg(g, modelled[k], r.strokes.phase[i], r.assessment.simulation_error_rms,
                              r.model.equation_error_rms, stampOf(g.t));
     // Messages only where every figure was computed (the model runs, the signals are there).
     if (std::isfinite(msg.modelled_pressure) && std::isfinite(msg.measured_pressure) && std::isfinite(msg.position) &&
@@ -286,7 +289,7 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
         std::isfinite(msg.equation_error_rms)) {
       bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
     }
-    comparison_csv << Stamp{g.t} << "," << Field{g.p} << "," << Field{modelled[i]} << "," << Field{msg.residual}
+    comparison_csv << Stamp{g.t} << "," << Field{g.p} << "," << Field{modelled[k]} << "," << Field{msg.residual}
                    << "," << Field{g.x} << "," << Field{g.v} << "," << Field{g.y} << "," << msg.phase_name << "\n";
   }
   closeChecked(comparison_csv, directory + "/model_comparison.csv");

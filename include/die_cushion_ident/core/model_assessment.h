@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "die_cushion_ident/core/hydraulic_model.h"
@@ -25,8 +26,17 @@ struct RegionError {
 /// the return stroke has brought the cushion back to within 5 % of its stroke from where the ram met it.
 struct StrokeSegmentation {
   std::vector<StrokePhase> phase;
-  std::vector<int> cycle;
-  int cycles = 0;  ///< complete cycles (indices 0 ... cycles-1)
+  /// Grid index where cycle k begins (its impact), for every impact seen; cycles are contiguous stretches of
+  /// the grid, so they are stored by their starts (not a cycle number per sample: 7 MB an hour).
+  std::vector<std::size_t> cycle_start;
+  std::size_t samples = 0;  ///< grid samples segmented
+  int cycles = 0;           ///< complete cycles (indices 0 ... cycles-1)
+
+  /// Grid indices [first, second) of cycles `first` ... `last`; first < 0 reaches back to the recording's
+  /// start (samples before the first impact), last beyond the last impact to its end.
+  std::pair<std::size_t, std::size_t> range(int first, int last) const;
+  /// The cycle of grid sample i (-1 before the first impact).
+  int cycleOf(std::size_t i) const;
 };
 StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid);
 
@@ -35,7 +45,9 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid);
 struct ModelAssessment {
   int samples = 0;                    ///< grid samples compared (model running free, not re-anchored)
   double simulation_error_rms = 0.0;  ///< [Pa]
-  std::vector<float> modelled;        ///< [Pa] per grid sample; NaN where the model is not running
+  /// [Pa] the free run at every kModelledStride-th grid sample (0, 5, 10, ...); NaN where it is not running
+  static constexpr std::size_t kModelledStride = 5;
+  std::vector<float> modelled;
   std::vector<RegionError> by_phase, by_pressure, by_velocity, by_opening;
   /// The worst regions in words, e.g. "the model under-predicts the pressure during bottom_hold by 38 bar".
   std::vector<std::string> worst_regions;

@@ -21,6 +21,8 @@ namespace die_cushion_ident {
 class EstimateSeries {
  public:
   void add(const HydraulicEstimate& e);
+  /// Room for `steps` estimates of `parameters` parameters (growth by doubling would hold up to twice that).
+  void reserve(std::size_t steps, int parameters);
   std::size_t size() const { return t_.size(); }
   int parameters() const { return parameters_; }
   double t(std::size_t i) const { return t_[i]; }
