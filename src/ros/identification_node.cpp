@@ -58,8 +58,8 @@ std::string formatted(const char* pattern, double value) {
 
 }  // namespace
 
-IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), sweep_(SweepLimits()), updater_(nh, pnh) {
+IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
+    : nh_(nh), pnh_(pnh), sweep_(SweepLimits()), updater_(nh, pnh, name) {
   const auto problems = loadParameters(pnh_, &config_, &limits_, &settings_);
   if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + join(problems, "\n  "));
   sweep_ = ValveSweep(limits_);

@@ -36,8 +36,9 @@ namespace die_cushion_ident {
 /// by one mutex, so a multi-threaded nodelet manager may call back concurrently.
 class IdentificationNode {
  public:
-  /// Throws std::invalid_argument with every invalid parameter listed.
-  IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  /// Throws std::invalid_argument with every invalid parameter listed. `name` prefixes the diagnostics: the
+  /// nodelet's own name inside a manager (two identification nodelets must not collide), else the node's.
+  IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name = ros::this_node::getName());
   /// Aborts a running sweep ("shutdown") and sends the valve back to its offset.
   ~IdentificationNode();
   /// True while a sweep commands the valve (the owner then takes callbacks more often).

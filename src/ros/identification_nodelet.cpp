@@ -27,7 +27,7 @@ class IdentificationNodelet : public nodelet::Nodelet {
     nh.setCallbackQueue(&queue_);
     pnh.setCallbackQueue(&queue_);
     try {
-      node_ = std::make_unique<IdentificationNode>(nh, pnh);
+      node_ = std::make_unique<IdentificationNode>(nh, pnh, pnh.getNamespace());  // its resolved name
     } catch (const std::exception& e) {
       // A manager hosts other nodelets: stay inert instead of taking it down; the message says what to fix.
       NODELET_FATAL("die_cushion_ident not started: %s", e.what());

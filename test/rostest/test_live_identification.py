@@ -33,6 +33,7 @@ class LiveIdentification(unittest.TestCase):
         cls.truth = Latest("/die_cushion/simulator/truth", ParameterEstimate)
         cls.ranking = Latest(NS + "effect_ranking", EffectRanking)
         cls.diagnostics = {}
+        cls.prefixes = set()
         cls.lock = threading.Lock()
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
         rospy.wait_for_service(NS + "set_effects", timeout=60)
@@ -44,6 +45,7 @@ class LiveIdentification(unittest.TestCase):
         with cls.lock:
             for status in msg.status:
                 cls.diagnostics[status.name.split(": ", 1)[-1]] = status
+                cls.prefixes.add(status.name.split(": ", 1)[0])
 
     def diagnostic(self, name):
         with self.lock:
@@ -64,6 +66,11 @@ class LiveIdentification(unittest.TestCase):
             self.assertEqual(status.level, DiagnosticStatus.OK, "%s: %s" % (name, status.message))
         comparison = self.comparison.get()
         self.assertLess(comparison.simulation_error_rms, 3e5)
+        # The nodelet's diagnostics carry its own name, not the manager's (two nodelets must not collide).
+        with self.lock:
+            prefixes = set(self.prefixes)
+        self.assertIn("die_cushion/ident", prefixes)  # diagnostic_updater drops the leading slash
+        self.assertNotIn("die_cushion/manager", prefixes)
 
     def test_2_unsafe_and_invalid_sweeps_are_refused(self):
         wait_for(lambda: self.comparison.get() is not None and self.comparison.get().phase == 2, 10, "drawing")
