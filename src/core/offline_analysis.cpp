@@ -71,9 +71,13 @@ void OfflineAnalysis::reserve(double seconds, double max_seconds) {
                      pipeline_.identifier().model().parameterCount());
 }
 
-TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
+void OfflineAnalysis::endInput() {
   if (!flushed_) pipeline_.flush();
   flushed_ = true;
+}
+
+TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
+  endInput();
   return die_cushion_ident::estimateTopicDelays(grid_, config_);
 }
 
@@ -81,8 +85,7 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
   const auto tell = [&](const std::string& what) {
     if (progress) progress(what);
   };
-  if (!flushed_) pipeline_.flush();
-  flushed_ = true;
+  endInput();
   OfflineResult r;
   r.topic_delays = config_.appliedTopicDelays();
   r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
@@ -126,9 +129,11 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
   const bool valve_stream = r.health[2].accepted > 0;
   r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0 && valve_stream;
   std::uint64_t complete = 0, with_velocity = 0;
+  double highest = -std::numeric_limits<double>::infinity();  // pressure, for a hint about its unit
   for (const GridSample& g : grid_) {
     complete += g.complete ? 1 : 0;
     with_velocity += g.complete && std::isfinite(g.v) ? 1 : 0;
+    if (std::isfinite(g.p)) highest = std::max(highest, static_cast<double>(g.p));
   }
   if (!r.hydraulics) {
     cannot(std::string("the ") + (r.health[0].accepted == 0 ? "pressure" : r.health[1].accepted == 0 ? "position" : "valve") +
@@ -148,10 +153,6 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     r.strokes = segmentStrokes(grid_);
     tell("fitting the model to the whole recording");
     r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
-    double highest = -std::numeric_limits<double>::infinity();
-    for (const GridSample& g : grid_) {
-      if (std::isfinite(g.p)) highest = std::max(highest, static_cast<double>(g.p));
-    }
     if (r.model.updates == 0 && highest < config_.min_pressure) {
       char text[320];
       std::snprintf(text, sizeof(text),

@@ -26,8 +26,6 @@ constexpr double kResidualWeight = 1.0 / 1300.0;
 constexpr double kSilenceLimit = 1.0;
 // RLS updates (10 ms each, only while excited) before the model comparison counts: about one stroke.
 constexpr std::uint64_t kUpdatesBeforeComparison = 100;
-// [s] a clock offset between topics beyond this deserves a look at the recording setup.
-constexpr double kLargeTopicOffset = 0.005;
 
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
@@ -270,11 +268,7 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
         toModelComparisonMsg(last_grid_, modelled_pressure_, phase_, std::sqrt(residual_square_mean_),
                              e.equation_error_rms, ros::Time(std::max(last_grid_.t, 0.0)));
     // Only what was computed: while the model cannot run, the adequacy diagnostic says why instead.
-    if (std::isfinite(msg.modelled_pressure) && std::isfinite(msg.measured_pressure) &&
-        std::isfinite(msg.position) && std::isfinite(msg.velocity) && std::isfinite(msg.spool_position) &&
-        std::isfinite(msg.equation_error_rms)) {
-      comparison_pub_.publish(msg);
-    }
+    if (isComputed(msg)) comparison_pub_.publish(msg);
   }
 }
 
@@ -634,8 +628,8 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
     if (updates < kUpdatesBeforeComparison) {
       why = "the estimator has " + std::to_string(updates) + " of " + std::to_string(kUpdatesBeforeComparison) +
             " updates (the press must stroke)";
-    } else if (!comparison_blocker_.empty()) {
-      why = "the model cannot run: " + comparison_blocker_;
+    } else if (comparison_blocker_[0] != '\0') {
+      why = std::string("the model cannot run: ") + comparison_blocker_;
     } else {
       why = std::to_string(residual_samples_) + " of 500 samples compared";
     }
@@ -682,7 +676,7 @@ void IdentificationNode::diagnoseTiming(diagnostic_updater::DiagnosticStatusWrap
   for (double d : delay_estimate_->delays) largest = std::max(largest, std::abs(d));
   status.add("estimated position offset [ms]", formatted("%+.2f", delay_estimate_->delays[1] * 1e3));
   status.add("estimated valve offset [ms]", formatted("%+.2f", delay_estimate_->delays[2] * 1e3));
-  if (largest > kLargeTopicOffset) {
+  if (largest > kLargeTopicDelay) {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
                    "topics stamped by different clocks: up to " + formatted("%.1f ms", largest * 1e3) +
                        " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");

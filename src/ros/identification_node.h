@@ -101,7 +101,7 @@ class IdentificationNode {
   std::uint64_t residual_samples_ = 0;
   StrokePhase phase_ = StrokePhase::kRest;
   double phase_square_error_[6] = {0, 0, 0, 0, 0, 0};  // per phase, same weighting
-  std::string comparison_blocker_;  // why the last grid sample could not be compared ("" = it could)
+  const char* comparison_blocker_ = "";  // why the last grid sample could not be compared ("" = it could)
 
   // Latest plant signals for the sweep's safety checks: values and their stamps [s].
   double pressure_ = std::numeric_limits<double>::quiet_NaN(), pressure_stamp_ = -1e18;

@@ -99,6 +99,12 @@ ModelComparison toModelComparisonMsg(const GridSample& sample, double modelled_p
   return msg;
 }
 
+bool isComputed(const ModelComparison& msg) {
+  return std::isfinite(msg.modelled_pressure) && std::isfinite(msg.measured_pressure) &&
+         std::isfinite(msg.position) && std::isfinite(msg.velocity) && std::isfinite(msg.spool_position) &&
+         std::isfinite(msg.simulation_error_rms) && std::isfinite(msg.equation_error_rms);
+}
+
 std::string jointNames(const sensor_msgs::JointState& msg) {
   std::string names;
   for (const auto& n : msg.name) names += (names.empty() ? "'" : ", '") + n + "'";

@@ -36,6 +36,10 @@ ModelComparison toModelComparisonMsg(const GridSample& sample, double modelled_p
                                      double simulation_error_rms, double equation_error_rms,
                                      const ros::Time& stamp);
 
+/// Every figure of the comparison was computed (the model runs, the signals are there): only such messages
+/// are published or recorded.
+bool isComputed(const ModelComparison& msg);
+
 /// Picks the cushion's joint out of a JointState (shared/CONTRACT.md): the joint named `joint_name`, or,
 /// with no name configured, the message's only joint, else position[0] (ambiguous: say so once). Its
 /// velocity is taken where the message carries one, else NaN (derived from the position downstream).

@@ -284,11 +284,7 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
         toModelComparisonMsg(g, modelled[k], r.strokes.phase[i], r.assessment.simulation_error_rms,
                              r.model.equation_error_rms, stampOf(g.t));
     // Messages only where every figure was computed (the model runs, the signals are there).
-    if (std::isfinite(msg.modelled_pressure) && std::isfinite(msg.measured_pressure) && std::isfinite(msg.position) &&
-        std::isfinite(msg.velocity) && std::isfinite(msg.spool_position) && std::isfinite(msg.simulation_error_rms) &&
-        std::isfinite(msg.equation_error_rms)) {
-      bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
-    }
+    if (isComputed(msg)) bag.write("/die_cushion_ident/model_comparison", msg.header.stamp, msg);
     comparison_csv << Stamp{g.t} << "," << Field{g.p} << "," << Field{modelled[k]} << "," << Field{msg.residual}
                    << "," << Field{g.x} << "," << Field{g.v} << "," << Field{g.y} << "," << msg.phase_name << "\n";
   }

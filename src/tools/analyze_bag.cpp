@@ -2,7 +2,8 @@
 //   rosrun die_cushion_ident analyze_bag BAG --out DIR [--config FILE.yaml] [--effects a,b]
 //                                        [--custom-effect NAME=EXPR]... [--quiet]
 // Exit codes: 0 done, 2 bad command line or configuration, 3 the bag cannot be used, 4 outputs not written,
-// 5 partial result (the bag was cut off while recording; what could be recovered was analysed).
+// 5 partial result (part of the bag unreadable, or part of the analysis could not run; the reasons are in
+// summary.yaml's warnings).
 #include <rosbag/bag.h>
 #include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/JointState.h>
@@ -333,9 +334,8 @@ int run(int argc, char** argv) {
       result.topic_delays_source = delays->significant(config.resampler.sample_period)
                                        ? "estimated"
                                        : "estimated, below a quarter sample period: not corrected";
-      constexpr double kLargeOffset = 0.005;  // [s] beyond this a recording setup deserves a look
       for (int s = 1; s < kInputStreamCount; ++s) {
-        if (std::abs(delays->delays[s]) > kLargeOffset) {
+        if (std::abs(delays->delays[s]) > kLargeTopicDelay) {
           result.warnings.push_back(std::string("the ") + inputStreamName(static_cast<InputStream>(s)) +
                                     " topic's stamps are " + milliseconds(delays->delays[s]) +
                                     " off the pressure's (estimated from the data and corrected): its "

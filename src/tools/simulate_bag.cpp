@@ -14,6 +14,7 @@
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/die_cushion_simulator.h"
 #include "die_cushion_ident/core/valve_sweep.h"
+#include "die_cushion_ident/core/velocity_from_position.h"
 
 using namespace die_cushion_ident;
 
@@ -214,7 +215,8 @@ int main(int argc, char** argv) {
       ValveSweep valve_sweep{SweepLimits()};
       const double offset = press.state().t - start_offset + 2.0;
       PlantCondition condition;
-      double spool_stamp = -1e9, pressure_stamp = -1e9, last_x = 0.0, last_x_stamp = -1.0;
+      double spool_stamp = -1e9, pressure_stamp = -1e9;
+      CausalVelocity position_rate;
       SweepRequest request;
       request.offset = 0.1;
       bool started = false;
@@ -242,12 +244,9 @@ int main(int argc, char** argv) {
             condition.pressure = m.sample.first;
             pressure_stamp = m.sample.stamp;
           } else if (m.stream == InputStream::kPosition) {
-            // Without a velocity channel the safety check differences the positions, as the node does.
-            condition.velocity = std::isfinite(m.sample.second)
-                                     ? m.sample.second
-                                     : (m.sample.first - last_x) / std::max(m.sample.stamp - last_x_stamp, 1e-6);
-            last_x = m.sample.first;
-            last_x_stamp = m.sample.stamp;
+            // Without a velocity channel the safety check uses the node's causal slope of the positions.
+            position_rate.push(m.sample.stamp, m.sample.first);
+            condition.velocity = std::isfinite(m.sample.second) ? m.sample.second : position_rate.velocity();
           } else {
             if (std::isfinite(m.sample.second)) spool_stamp = m.sample.stamp;
             valve_sweep.addValveSample(m.sample.stamp, m.sample.first, m.sample.second);

@@ -95,6 +95,8 @@ class OfflineAnalysis {
   std::vector<ValveSample> valve_;
   EstimateSeries estimates_;
   SweepCandidateFilter valve_filter_;
+  void endInput();  // flushes the pipeline once
+
   std::uint64_t messages_ = 0;
   bool flushed_ = false;
 };

@@ -9,6 +9,9 @@
 
 namespace die_cushion_ident {
 
+/// [s] a clock offset between topics beyond this deserves a look at the recording setup (a warning).
+constexpr double kLargeTopicDelay = 0.005;
+
 /// Clock offsets between the input topics, found in the data.
 struct TopicDelayEstimate {
   /// [s] how late each topic's stamps are against the pressure's (pressure 0 by definition).
