@@ -15,7 +15,7 @@ from sensor_msgs.msg import FluidPressure, JointState
 
 from die_cushion_ident.msg import ModelComparison, ParameterEstimate, ValveSignal
 from die_cushion_ident.srv import SetEffects
-from rostest_helpers import Latest, value
+from rostest_helpers import Latest, value, wait_for_clock
 
 NS = "/die_cushion/ident/"
 
@@ -43,6 +43,7 @@ class HostileLive(unittest.TestCase):
                 cls.seen.setdefault(s.name.split(": ", 1)[-1], []).append((s.level, s.message))
 
     def wait_sim(self, seconds):
+        wait_for_clock()
         end = rospy.Time.now() + rospy.Duration(seconds)
         while not rospy.is_shutdown() and rospy.Time.now() < end:
             time.sleep(0.05)

@@ -10,18 +10,9 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from die_cushion_ident.msg import EffectRanking, ModelComparison, ParameterEstimate
 from die_cushion_ident.srv import SetEffects, StartSweep
-from rostest_helpers import Latest, value
+from rostest_helpers import Latest, value, wait_for
 
 NS = "/die_cushion/ident/"
-
-
-def wait_for(predicate, timeout, what):
-    deadline = rospy.Time.now() + rospy.Duration(timeout)
-    while not rospy.is_shutdown() and rospy.Time.now() < deadline:
-        if predicate():
-            return
-        rospy.sleep(0.2)
-    raise AssertionError("timed out (%.0f s sim time) waiting for %s" % (timeout, what))
 
 
 class LiveIdentification(unittest.TestCase):

@@ -10,6 +10,7 @@ import rostest
 
 from die_cushion_ident.msg import FrequencyResponse, ValveModel, ValveSignal
 from die_cushion_ident.srv import AbortSweep, StartSweep
+from rostest_helpers import wait_for_clock
 
 NS = "/die_cushion/ident/"
 
@@ -39,6 +40,7 @@ class LiveSweep(unittest.TestCase):
         cls.truth = msg
 
     def wait_for_model(self, count, timeout):
+        wait_for_clock()
         deadline = rospy.Time.now() + rospy.Duration(timeout)
         while rospy.Time.now() < deadline and not rospy.is_shutdown():
             with self.lock:
