@@ -4,6 +4,7 @@
 
 #include "die_cushion_ident/core/effect_library.h"
 #include "die_cushion_ident/core/effects/custom_flow_effect.h"
+#include "die_cushion_ident/core/hydraulic_model.h"
 
 using namespace die_cushion_ident;
 
@@ -90,7 +91,53 @@ TEST(CustomFlowEffect, EvaluatesTheExpressionOfTheNamedSignals) {
   EXPECT_EQ(relief.parameter().name, "relief_valve_theta");
   CustomFlowEffect all("all_signals", "p + dp + x + v + u + y + V + t");
   HydraulicSignals a{1, 2, 3, 4, 5, 6, 7, 8};
-  EXPECT_DOUBLE_EQ(all.outflowPerUnit(a), 36.0);
+  // Affine in dp: the dp part is a capacitance (1 per unit), the flow is the rest.
+  EXPECT_DOUBLE_EQ(all.outflowPerUnit(a) + all.capacitancePerUnit(a) * a.dp, 36.0);
+  EXPECT_DOUBLE_EQ(all.capacitancePerUnit(a), 1.0);
+}
+
+// A term in dp means the same in the fit, the free run and the simulator: a compliance that the model's
+// pressure rate includes (issue 12; before, the rate was evaluated with dp = 0 and the term vanished).
+TEST(CustomFlowEffect, ATermAffineInThePressureRateIsACapacitance) {
+  const CylinderGeometry geometry;
+  const HydraulicModel plain = HydraulicModel::fromNames(geometry, {});
+  const HydraulicModel with = HydraulicModel::fromNames(geometry, {}, {"accumulator=dp*(p>50e5)"});
+  ParameterVector theta(with.parameterCount());
+  theta.head(3) = plain.nominalParameters();
+  theta(3) = 2e-12;  // [m^3/Pa] above 50 bar
+  HydraulicSignals s;
+  s.p = 100e5;
+  s.v = 0.1;
+  s.y = 0.3;
+  s.x = 0.1;
+  s.V = with.chamberVolume(s.x, theta(HydraulicModel::kDeadVolume));
+  const double c0 = plain.capacitance(s, plain.nominalParameters());
+  EXPECT_NEAR(with.capacitance(s, theta), c0 + 2e-12, 1e-24);
+  EXPECT_NEAR(with.pressureRate(s, theta), plain.pressureRate(s, plain.nominalParameters()) * c0 / (c0 + 2e-12),
+              1e-9 * std::abs(plain.pressureRate(s, plain.nominalParameters())));
+  EXPECT_FALSE(with.effect(0).outflowDependsOnPressureRate());
+  s.p = 20e5;  // below the precharge: no extra compliance
+  EXPECT_NEAR(with.capacitance(s, theta), plain.capacitance(s, plain.nominalParameters()), 1e-24);
+}
+
+TEST(CustomFlowEffect, ATermNonlinearInThePressureRateIsSolvedFor) {
+  const CylinderGeometry geometry;
+  const HydraulicModel model = HydraulicModel::fromNames(geometry, {}, {"damper=abs(dp)"});
+  ParameterVector theta(model.parameterCount());
+  theta.head(3) = HydraulicModel::fromNames(geometry, {}).nominalParameters();
+  theta(3) = 1e-12;
+  EXPECT_TRUE(model.effect(0).outflowDependsOnPressureRate());
+  HydraulicSignals s;
+  s.p = 100e5;
+  s.v = 0.2;
+  s.y = 0.1;
+  s.x = 0.1;
+  const double r = model.pressureRate(s, theta);
+  ASSERT_TRUE(std::isfinite(r));
+  s.dp = r;  // the solved rate balances the volume flows
+  const double balance = model.capacitance(s, theta) * r + model.valveFlow(s, theta) +
+                         model.extraOutflow(s, theta) - geometry.piston_area * s.v;
+  EXPECT_NEAR(balance, 0.0, 1e-12 * geometry.piston_area * std::abs(s.v));
 }
 
 TEST(CustomFlowEffect, ClonesAreIndependent) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <stdexcept>
 
@@ -42,7 +43,7 @@ HydraulicModel::HydraulicModel(const CylinderGeometry& geometry, std::vector<std
 }
 
 HydraulicModel::HydraulicModel(const HydraulicModel& other)
-    : geometry_(other.geometry_), infos_(other.infos_) {
+    : geometry_(other.geometry_), infos_(other.infos_), rate_dependent_flow_(other.rate_dependent_flow_) {
   for (const auto& e : other.effects_) effects_.push_back(e->clone());
 }
 
@@ -70,6 +71,8 @@ void HydraulicModel::rebuildInfos() {
   infos_.push_back({"valve_flow_gain", "m^3/(s*Pa^0.5)", A * s / (0.5 * std::sqrt(100e5)), 0.0, 1.0});
   infos_.push_back({"dead_volume", "m^3", 0.25 * A * s, 0.0, 10.0 * A * s});
   for (const auto& e : effects_) infos_.push_back(e->parameter());
+  rate_dependent_flow_ = false;
+  for (const auto& e : effects_) rate_dependent_flow_ |= e->outflowDependsOnPressureRate();
 }
 
 std::vector<std::string> HydraulicModel::effectNames() const {
@@ -123,8 +126,31 @@ double HydraulicModel::extraOutflow(const HydraulicSignals& s, const ParameterVe
 }
 
 double HydraulicModel::pressureRate(const HydraulicSignals& s, const ParameterVector& physical) const {
-  const double net_inflow = geometry_.piston_area * s.v - valveFlow(s, physical) - extraOutflow(s, physical);
-  return net_inflow / capacitance(s, physical);
+  const double driving = geometry_.piston_area * s.v - valveFlow(s, physical);
+  const double c = capacitance(s, physical);
+  HydraulicSignals at = s;
+  at.dp = 0.0;
+  const double guess = (driving - extraOutflow(at, physical)) / c;
+  if (!rate_dependent_flow_ || !std::isfinite(guess)) return guess;
+  // A flow that depends on dp/dt itself (a custom term not affine in dp): solve
+  // C r + Q_extra(r) - (A v - Q_v) = 0 for r by the secant method from the rate without it.
+  const auto residual = [&](double r) {
+    at.dp = r;
+    return c * r + extraOutflow(at, physical) - driving;
+  };
+  double r0 = guess, f0 = residual(r0);
+  double r1 = guess + 1e-3 * std::abs(guess) + 1.0, f1 = residual(r1);
+  for (int iteration = 0; iteration < 40; ++iteration) {
+    if (f1 == 0.0 || std::abs(r1 - r0) <= 1e-12 * std::abs(r1) + 1e-9) return r1;
+    if (f1 == f0) break;
+    const double r2 = r1 - f1 * (r1 - r0) / (f1 - f0);
+    r0 = r1;
+    f0 = f1;
+    r1 = r2;
+    f1 = residual(r1);
+    if (!std::isfinite(f1)) break;
+  }
+  return std::numeric_limits<double>::quiet_NaN();  // no rate balances the flows: the model does not hold
 }
 
 void HydraulicModel::regressionColumns(const HydraulicSignals& s, const ParameterVector& linearisation_point,

@@ -48,6 +48,9 @@ class Effect {
   virtual double capacitancePerUnit(const HydraulicSignals& /*signals*/) const { return 0.0; }
   /// Additive effects: extra outflow per unit of theta [m^3/s per unit].
   virtual double outflowPerUnit(const HydraulicSignals& /*signals*/) const { return 0.0; }
+  /// True when outflowPerUnit() reads signals.dp other than through capacitancePerUnit(): the model then
+  /// solves the balance for dp/dt instead of evaluating it once.
+  virtual bool outflowDependsOnPressureRate() const { return false; }
 
   /// Valve-shape effects: reshape `port` for spool position y and parameter theta, and give the
   /// derivative of both port quantities with respect to theta in `derivative`.

@@ -57,7 +57,8 @@ class HydraulicModel {
   double capacitance(const HydraulicSignals& s, const ParameterVector& physical) const;   ///< [m^3/Pa]
   double valveFlow(const HydraulicSignals& s, const ParameterVector& physical) const;     ///< Q_v [m^3/s]
   double extraOutflow(const HydraulicSignals& s, const ParameterVector& physical) const;  ///< [m^3/s]
-  double pressureRate(const HydraulicSignals& s, const ParameterVector& physical) const;  ///< dp/dt [Pa/s]
+  /// dp/dt [Pa/s] solving the balance (s.dp is ignored); NaN where no rate balances the flows.
+  double pressureRate(const HydraulicSignals& s, const ParameterVector& physical) const;
 
   // --- Identification ---
   /// Columns a_j, g_j (arrays of parameterCount()) at signals s. Valve-shape effects are linearised around
@@ -76,6 +77,7 @@ class HydraulicModel {
   CylinderGeometry geometry_;
   std::vector<std::unique_ptr<Effect>> effects_;
   std::vector<ParameterInfo> infos_;
+  bool rate_dependent_flow_ = false;  // some effect's flow reads dp/dt: pressureRate() solves for it
 };
 
 }  // namespace die_cushion_ident

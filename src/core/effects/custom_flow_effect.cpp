@@ -50,12 +50,28 @@ CustomFlowEffect::CustomFlowEffect(std::string name, std::string expression)
   probe();
 }
 
-void CustomFlowEffect::probe() const {
+namespace {
+// The pressure rates at which a term is probed for its dependence on dp: zero, a typical rate and the
+// extremes of a stiff cushion (1e8 Pa/s is 1000 bar/s), both signs.
+constexpr double kRateUnit = 1e6;  // [Pa/s]
+const double kProbeRates[] = {0.0, kRateUnit, -1e8, 0.5e8, 1e8};
+
+bool sameValue(double a, double b, double scale) { return std::abs(a - b) <= 1e-9 * scale; }
+}  // namespace
+
+double CustomFlowEffect::evaluate(const HydraulicSignals& signals, double dp) const {
+  bound_ = signals;
+  bound_.dp = dp;
+  const double value = parser_->Eval();
+  return std::isfinite(value) ? value : 0.0;
+}
+
+void CustomFlowEffect::probe() {
   // Evaluate over the signals' plausible operating range: a term that is non-finite or absurd there
   // would wreck the estimator, one that is always zero cannot be identified. Both are refused now, with
   // the point that shows it, instead of being reported later as "fitted" at their initial value.
+  // The same points tell whether the term is affine in dp (a capacitance) or depends on it otherwise.
   static const double kP[] = {0.0, 1e5, 30e5, 100e5, 200e5, 300e5};
-  static const double kDp[] = {-1e8, 0.0, 1e8};
   static const double kX[] = {0.0, 0.1, 0.25};
   static const double kV[] = {-0.3, 0.0, 0.3};
   static const double kU[] = {-1.0, 0.0, 1.0};
@@ -63,7 +79,7 @@ void CustomFlowEffect::probe() const {
   static const double kVolume[] = {0.005, 0.02};
   static const double kT[] = {0.0, 100.0};
   constexpr double kAbsurd = 1e30;  // p^4 at 300 bar is 8e29: anything larger is no flow term
-  bool varies = false;
+  bool varies = false, uses_dp = false, affine = true;
   double first = std::numeric_limits<double>::quiet_NaN();
   const auto where = [](const HydraulicSignals& s) {
     char text[160];
@@ -73,14 +89,15 @@ void CustomFlowEffect::probe() const {
   };
   HydraulicSignals s;
   for (double p : kP)
-    for (double dp : kDp)
-      for (double x : kX)
-        for (double v : kV)
-          for (double u : kU)
-            for (double y : kY)
-              for (double volume : kVolume)
-                for (double t : kT) {
-                  s = {t, p, dp, x, v, u, y, volume};
+    for (double x : kX)
+      for (double v : kV)
+        for (double u : kU)
+          for (double y : kY)
+            for (double volume : kVolume)
+              for (double t : kT) {
+                double at[5];
+                for (int k = 0; k < 5; ++k) {
+                  s = {t, p, kProbeRates[k], x, v, u, y, volume};
                   bound_ = s;
                   double value = 0.0;
                   try {
@@ -99,11 +116,21 @@ void CustomFlowEffect::probe() const {
                   }
                   if (std::isnan(first)) first = value;
                   varies |= value != first;
+                  at[k] = value;
                 }
+                const double scale = std::abs(at[0]) + std::abs(at[2]) + std::abs(at[4]) + 1e-300;
+                const double slope = (at[1] - at[0]) / kRateUnit;
+                uses_dp |= !(at[1] == at[0] && at[2] == at[0] && at[3] == at[0] && at[4] == at[0]);
+                affine &= sameValue(at[2], at[0] - 1e8 * slope, scale) &&
+                          sameValue(at[3], at[0] + 0.5e8 * slope, scale) &&
+                          sameValue(at[4], at[0] + 1e8 * slope, scale);
+              }
   if (!varies && first == 0.0) {
     throw std::invalid_argument("custom effect '" + name_ + "': '" + expression_ +
                                 "' is 0 everywhere in the operating range: there is no flow to identify");
   }
+  dp_affine_ = uses_dp && affine;
+  dp_nonlinear_ = uses_dp && !affine;
 }
 
 CustomFlowEffect::~CustomFlowEffect() = default;
@@ -116,10 +143,13 @@ ParameterInfo CustomFlowEffect::parameter() const {
   return {name_ + "_theta", "m^3/s per unit of (" + expression_ + ")", 1.0};
 }
 
+double CustomFlowEffect::capacitancePerUnit(const HydraulicSignals& signals) const {
+  if (!dp_affine_) return 0.0;
+  return (evaluate(signals, kRateUnit) - evaluate(signals, 0.0)) / kRateUnit;
+}
+
 double CustomFlowEffect::outflowPerUnit(const HydraulicSignals& signals) const {
-  bound_ = signals;
-  const double value = parser_->Eval();
-  return std::isfinite(value) ? value : 0.0;
+  return evaluate(signals, dp_affine_ ? 0.0 : signals.dp);
 }
 
 std::unique_ptr<CustomFlowEffect> parseCustomEffect(const std::string& name_equals_expression) {
