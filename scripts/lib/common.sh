@@ -9,7 +9,7 @@ export PATH="/usr/bin:$PATH"
 
 APT_PACKAGES=(
   build-essential cmake ros-core-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
-  libdiagnostic-updater-dev libeigen3-dev libmuparser-dev libyaml-cpp-dev libceres-dev
+  libdiagnostic-updater-dev libeigen3-dev libboost-dev libmuparser-dev libyaml-cpp-dev libceres-dev
   libgtest-dev googletest libbenchmark-dev clang libclang-rt-14-dev libbz2-dev libroslz4-dev
   libros-rosgraph-msgs-dev libvisualization-msgs-dev
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-rospy python3-diagnostic-msgs rosbash

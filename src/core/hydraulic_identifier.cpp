@@ -67,9 +67,17 @@ ParameterVector HydraulicIdentifier::physicalParameters() const {
   return model_.physicalFromCoefficients(c);
 }
 
-void HydraulicIdentifier::refreshLinearisationPoint() {
+void HydraulicIdentifier::freezeLinearisationPoint(const ParameterVector& physical) {
+  linearisation_frozen_ = false;
+  refreshLinearisationPoint(physical);
+  linearisation_frozen_ = true;
+}
+
+void HydraulicIdentifier::refreshLinearisationPoint() { refreshLinearisationPoint(physicalParameters()); }
+
+void HydraulicIdentifier::refreshLinearisationPoint(ParameterVector physical) {
+  if (linearisation_frozen_) return;
   // Early estimates can be unphysical; the linearisation stays inside the plausible ranges.
-  ParameterVector physical = physicalParameters();
   const auto& infos = model_.parameterInfos();
   const ParameterVector nominal = model_.nominalParameters();
   for (int i = 0; i < physical.size(); ++i) {

@@ -178,6 +178,16 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+  // The staircase of verified additions; the last entry is the recommended model.
+  out << YAML::Key << "steps" << YAML::Value << YAML::BeginSeq;
+  for (const auto& step : r.ranking.steps) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "add" << YAML::Value << step.add;
+    out << YAML::Key << "held_out_error_rms" << YAML::Value << step.held_out_error_rms;
+    if (!step.together_with.empty()) out << YAML::Key << "together_with" << YAML::Value << step.together_with;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
   out << YAML::Key << "adequacy" << YAML::Value << YAML::BeginMap;
   // Held-out errors exist only where the ranking could judge on held-out strokes.
   const bool judged = r.model.updates > 0 && r.strokes.cycles >= EffectRankingOptions().min_held_out_cycles;

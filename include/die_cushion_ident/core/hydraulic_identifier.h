@@ -58,9 +58,13 @@ class HydraulicIdentifier {
   std::uint64_t updates() const { return rls_->updates(); }
   /// Predicted dp/dt [Pa/s] of the current model for a row (for comparison with row.pressure_rate).
   double capacitanceAt(const RegressionRow& row) const;
+  /// Linearises valve-shape effects (and the chamber volume) at `physical` from now on instead of at the
+  /// running estimate: a batch fit's second pass, whose rows must all share one linearisation point.
+  void freezeLinearisationPoint(const ParameterVector& physical);
 
  private:
   void refreshLinearisationPoint();
+  void refreshLinearisationPoint(ParameterVector physical);
   bool identificationStep();
 
   IdentificationConfig config_;
@@ -71,6 +75,7 @@ class HydraulicIdentifier {
   double flow_scale_;      // [m^3/s] divides both sides of the equation
   double overlap_factor_;  // rows sharing data per identification step
   ParameterVector linearisation_point_;
+  bool linearisation_frozen_ = false;
   RegressionRow row_;
   std::uint64_t rows_ = 0;
   std::uint64_t steps_ = 0, skipped_invalid_ = 0, skipped_unexcited_ = 0;

@@ -1,0 +1,40 @@
+#pragma once
+
+#include <vector>
+
+#include "die_cushion_ident/core/hydraulic_identifier.h"
+#include "die_cushion_ident/core/identification_config.h"
+#include "die_cushion_ident/core/model_assessment.h"
+
+namespace die_cushion_ident {
+
+/// Free-run pressure error of one model on press cycles it was not fitted to: fitted without forgetting
+/// on cycles [0, split), run free on [split, cycles), and the other way round.
+struct HeldOutErrors {
+  std::vector<double> cycle_rms;  ///< [Pa] per cycle id; NaN where a cycle has no held-out sample
+  double rms = 0.0;               ///< [Pa] over all held-out samples
+};
+
+HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const IdentificationConfig& config, int split);
+
+/// A model against its base on the same held-out cycles: the cycles are the independent units of a paired
+/// one-sided t test on the log ratio of their errors (a stroke holds thousands of strongly correlated
+/// samples, so a per-sample test would call every extension significant).
+struct HeldOutComparison {
+  double error_reduction = 0.0;  ///< 1 - rms(with) / rms(base)
+  double t_statistic = 0.0;      ///< < 0: the extended model is better
+  int cycles = 0;                ///< cycles paired (by cycle id)
+  /// t below the exact one-sided Student quantile at `significance` (and at least two cycles).
+  bool significant = false;
+};
+
+HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors& with, double significance);
+
+/// Fits `config`'s model to the grid samples of cycles [first_cycle, last_cycle] (all: INT_MIN, INT_MAX)
+/// without forgetting and returns the estimate. Models with valve-shape effects take two more passes,
+/// each linearised at the previous pass's estimate.
+HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                              const IdentificationConfig& config, int first_cycle, int last_cycle);
+
+}  // namespace die_cushion_ident
