@@ -193,6 +193,10 @@ std::string quotedList(const std::vector<EffectStep>& steps) {
 
 }  // namespace
 
+double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
+  return std::max(options.unexplained_noise_factor * noise_rms, 1e5);
+}
+
 EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                 const IdentificationConfig& config, const EffectRankingOptions& options) {
   EffectRankingResult ranking;
@@ -209,7 +213,7 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   // one analysis, each step verified on held-out cycles.
   IdentificationConfig model = config;
   std::vector<CandidateEffect> added;
-  const double floor = std::max(options.unexplained_noise_factor * ranking.noise_rms, 1e5);
+  const double floor = structuredErrorFloor(ranking.noise_rms, options);
   const auto add = [&](Judged top, const std::string& together_with) {
     model.effects.push_back(top.candidate.effect);
     current = std::move(top.held_out);
@@ -237,6 +241,8 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   ranking.candidates = std::move(added);
   for (auto& judged : round) ranking.candidates.push_back(std::move(judged.candidate));
   ranking.best_error_rms = current.rms;
+  ranking.recommended_held_out = current;
+  ranking.recommended_effects = model.effects;
 
   ranking.residual_unexplained = enough && ranking.best_error_rms > floor;
   const std::string held_out_path = [&] {

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "die_cushion_ident/core/formula_search.h"
+
 namespace die_cushion_ident {
 
 OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
@@ -190,6 +192,10 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     }
     tell("trying the library's other effects on held-out cycles");
     r.ranking = rankEffects(grid_, r.strokes, config_);
+    if (r.ranking.residual_unexplained || always_propose_) {
+      tell("searching for a formula for the error the library leaves");
+      addFormulaProposals(grid_, r.strokes, config_, &r.ranking);
+    }
     if (r.strokes.cycles == 0) {
       cannot("no complete press stroke (impact, drawing, return to the top) in the recording: the effect "
              "ranking could not run; record at least three complete strokes");

@@ -188,6 +188,25 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+  out << YAML::Key << "proposals" << YAML::Value << YAML::BeginSeq;
+  for (const auto& p : r.ranking.proposals) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "expression" << YAML::Value << p.spec();
+    out << YAML::Key << "error_reduction" << YAML::Value << p.error_reduction;
+    out << YAML::Key << "verdict" << YAML::Value << p.verdict;
+    out << YAML::Key << "parameters" << YAML::Value;
+    emitParameters(out, p.parameters);
+    out << YAML::Key << "explanation" << YAML::Value << p.explanation;
+    out << YAML::Key << "signal" << YAML::Value << std::string(1, p.signal);
+    out << YAML::Key << "kind" << YAML::Value << (p.compliance ? "compliance" : "flow");
+    if (std::isfinite(p.breakpoint)) out << YAML::Key << "breakpoint" << YAML::Value << p.breakpoint;
+    out << YAML::Key << "held_out_error_rms" << YAML::Value << p.held_out_error_rms;
+    out << YAML::Key << "held_out_cycles" << YAML::Value << p.held_out_cycles;
+    out << YAML::Key << "t_statistic" << YAML::Value << p.t_statistic;
+    if (!p.together_with.empty()) out << YAML::Key << "together_with" << YAML::Value << p.together_with;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
   out << YAML::Key << "adequacy" << YAML::Value << YAML::BeginMap;
   // Held-out errors exist only where the ranking could judge on held-out strokes.
   const bool judged = r.model.updates > 0 && r.strokes.cycles >= EffectRankingOptions().min_held_out_cycles;
@@ -314,6 +333,19 @@ void writeBagAndCsv(const std::string& directory, const OfflineResult& r, const 
     }
     closeChecked(csv, directory + "/frequency_response.csv");
   }
+  if (!r.ranking.proposals.empty()) {
+    // For the report: each proposal's residual against its signal, with the fitted term drawn over it.
+    std::ofstream csv(directory + "/proposals.csv");
+    csv << "expression,signal,signal_value,residual_flow,term_flow\n";
+    csv.precision(8);
+    for (const auto& p : r.ranking.proposals) {
+      for (std::size_t b = 0; b < p.bin_signal.size(); ++b) {
+        csv << '"' << p.spec() << "\"," << p.signal << "," << Field{p.bin_signal[b]} << ","
+            << Field{p.bin_residual[b]} << "," << Field{p.bin_term[b]} << "\n";
+      }
+    }
+    closeChecked(csv, directory + "/proposals.csv");
+  }
   bag.close();
   delete bag_object;  // closed: its destructor has nothing left to throw
 }
@@ -326,7 +358,7 @@ void writeAnalysis(const std::string& directory, const AnalysisInput& input,
   // A reused output folder must not keep a previous run's files (a stale frequency_response.csv would
   // describe another recording).
   for (const char* name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
-                           "frequency_response.csv"}) {
+                           "frequency_response.csv", "proposals.csv"}) {
     std::remove((directory + "/" + name).c_str());
   }
   writeSummary(directory + "/summary.yaml", input, config, result);

@@ -33,18 +33,21 @@ namespace {
 
 const char* kUsage =
     "usage: analyze_bag BAG --out DIR [--config FILE.yaml] [--effects a,b] [--custom-effect NAME=EXPR]... "
-    "[--quiet]\n"
+    "[--propose] [--quiet]\n"
     "  Identifies the die cushion's hydraulics and valve from a recorded bag and writes DIR/summary.yaml,\n"
     "  DIR/analysis.bag and CSV files. Library effects: leakage, entrained_air, valve_overlap, "
     "tank_pressure.\n"
     "  The config file holds the geometry (piston_area, stroke_length, supply_pressure), any setting of\n"
-    "  README's configuration table, effects, custom_effects and topics: {pressure, position, valve}.\n";
+    "  README's configuration table, effects, custom_effects and topics: {pressure, position, valve}.\n"
+    "  --propose searches formulas for the error the library leaves even when it is not structured (by\n"
+    "  default the search runs only when it is).\n";
 
 struct Options {
   std::string bag, out, config;
   std::vector<std::string> effects, custom_effects;
   bool effects_given = false;
   bool quiet = false;
+  bool propose = false;
 };
 
 [[noreturn]] void fail(int code, const std::string& message) {
@@ -74,6 +77,8 @@ Options parseArguments(int argc, char** argv) {
       o.custom_effects.push_back(value());
     } else if (a == "--quiet") {
       o.quiet = true;
+    } else if (a == "--propose") {
+      o.propose = true;
     } else if (!a.empty() && a[0] == '-') {
       fail(2, "unknown option " + a + "\n" + kUsage);
     } else if (o.bag.empty()) {
@@ -325,6 +330,7 @@ int run(int argc, char** argv) {
     log(warnings.back());
   }
 
+  analysis->proposeAlways(options.propose);
   OfflineResult result = analysis->finish([&](const std::string& step) { log(step); });
   result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
   if (delays) {

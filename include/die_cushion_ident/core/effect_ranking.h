@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,27 @@ struct CandidateEffect {
   double t_statistic = 0.0;  ///< paired t of log(per-cycle error ratio) across held-out cycles (< 0: better)
 };
 
+/// A formula for error that no library effect explains, proven on held-out cycles like a library candidate.
+struct FormulaProposal {
+  std::string name;        ///< custom effect name, e.g. "relief"
+  std::string expression;  ///< e.g. "max(p-1.21e7,0)"; name=expression is ready for --custom-effect
+  std::string spec() const { return name + "=" + expression; }
+  char signal = 'p';       ///< the signal whose threshold or shape the term describes
+  bool compliance = false;  ///< a compliance (dp * c) rather than a flow
+  double breakpoint = std::numeric_limits<double>::quiet_NaN();  ///< in the signal's SI unit; NaN: none
+  double error_reduction = 0.0;  ///< held-out free-run error, relative to the model it extends
+  double held_out_error_rms = 0.0;  ///< [Pa] with the term
+  std::string verdict;              ///< missing | not_needed | inconclusive
+  int held_out_cycles = 0;
+  double t_statistic = 0.0;
+  std::vector<IdentifiedParameter> parameters;  ///< NAME_theta in physical units, fitted on all the data
+  std::string explanation;
+  std::string together_with;  ///< a second term: the proposal it extends (proposed only with it)
+  /// The residual against the chosen signal, for the report: bin centres [signal unit], the model's
+  /// equation error [m^3/s] and the fitted term [m^3/s], each averaged over the bin.
+  std::vector<double> bin_signal, bin_residual, bin_term;
+};
+
 /// One verified addition of the staircase: the effect and the held-out error of the model with it.
 struct EffectStep {
   std::string add;
@@ -42,6 +64,12 @@ struct EffectRankingResult {
   /// The effects of `steps` first, in their order (error_reduction: what each removed at its step); then
   /// every other library effect judged against the recommended model, most explanatory first.
   std::vector<CandidateEffect> candidates;
+  /// Formulas for the error the library leaves (proposeFormulas), most explanatory first; empty when
+  /// nothing structured is left or the search did not run.
+  std::vector<FormulaProposal> proposals;
+  /// Held-out errors of the recommended model (the base of the formula search).
+  HeldOutErrors recommended_held_out;
+  std::vector<std::string> recommended_effects;  ///< the configured effects plus `steps`
   /// The error left by the best model is well above the noise: something the library does not describe.
   bool residual_unexplained = false;
   std::string conclusion;  ///< what to do, in one or two sentences
@@ -57,6 +85,9 @@ struct EffectRankingOptions {
   /// Cycles [0, split) and [split, cycles) are the two folds.
   int split(int cycles) const { return cycles / 2; }
 };
+
+/// The held-out error above which the error left is "structured": a multiple of the noise, and 1 bar.
+double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options);
 
 /// Tries every library effect that `config` does not use as an extension of the model, and adds the
 /// missing ones one at a time (EffectRankingResult::steps).

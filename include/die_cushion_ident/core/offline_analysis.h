@@ -82,6 +82,9 @@ class OfflineAnalysis {
   /// Ends the input and estimates the topics' clock offsets from the grid (TopicDelayEstimator). A caller
   /// that finds them significant analyses the recording again with config.topic_delays set.
   TopicDelayEstimate estimateTopicDelays();
+  /// Searches formulas for the error the library leaves even when it is not structured (analyze_bag
+  /// --propose); by default the search runs only when it is.
+  void proposeAlways(bool always) { always_propose_ = always; }
   /// Runs the analyses; `progress` (may be empty) is told what runs.
   OfflineResult finish(const std::function<void(const std::string&)>& progress = {});
 
@@ -99,6 +102,7 @@ class OfflineAnalysis {
 
   std::uint64_t messages_ = 0;
   bool flushed_ = false;
+  bool always_propose_ = false;
 };
 
 }  // namespace die_cushion_ident
