@@ -226,8 +226,10 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   while (enough) {
     if (!round.empty() && round.front().candidate.verdict == "missing") {
       add(std::move(round.front()), "");
-    } else if (current.rms > floor && round.size() >= 2) {
-      // Structured error left and no single effect explains it: two that mask each other might.
+    } else if (ranking.steps.empty() && current.rms > floor && round.size() >= 2) {
+      // Structured error left and no single effect explains it: two that mask each other might. Tried
+      // before any step only (each pair costs a candidate's fits; after a step, the formula search is
+      // the better use of the time).
       auto pair = bestMissingPair(grid, strokes, model, current, round, options);
       if (!pair) break;
       const std::string first = pair->first.candidate.effect;

@@ -6,9 +6,11 @@
 #include <climits>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <set>
 #include <stdexcept>
 
+#include "die_cushion_ident/core/free_run_pressure.h"
 #include "die_cushion_ident/core/hydraulic_model.h"
 
 namespace die_cushion_ident {
@@ -206,23 +208,30 @@ class BalanceScreen {
 struct Screened {
   FormulaTerm term;
   double reduction = 0.0;
+  double lo = 0.0, hi = 0.0;  ///< the breakpoint's bracket: the coarse grid's neighbours of the best
 };
 
 // The term of one shape with its best breakpoint: a coarse grid over the signal's quantiles, then a fine
 // grid between the best point's neighbours. A negative theta turns a two-way flow into an inflow and
 // disqualifies the rest.
 Screened bestOfShape(const BalanceScreen& screen, const FormulaTerm& shape, const FormulaSearchOptions& options) {
-  Screened best{shape, 0.0};
+  Screened best{shape, 0.0, 0.0, 0.0};
   const auto judge = [&](const std::vector<FormulaTerm>& terms) {
+    // Eight breakpoints per pass over the data: an hour's columns for all 24 at once would take 35 MB.
+    constexpr int kChunk = 8;
     Eigen::VectorXd columns;
-    screen.termColumns(terms, &columns, static_cast<int>(terms.size()));
     const int n = screen.windows();
     int best_index = -1;
     for (std::size_t b = 0; b < terms.size(); ++b) {
-      const auto s = screen.score(columns.segment(static_cast<Eigen::Index>(b) * n, n));
+      if (b % kChunk == 0) {
+        const std::vector<FormulaTerm> chunk(terms.begin() + b, terms.begin() + std::min(b + kChunk, terms.size()));
+        screen.termColumns(chunk, &columns, static_cast<int>(chunk.size()));
+      }
+      const auto s = screen.score(columns.segment(static_cast<Eigen::Index>(b % kChunk) * n, n));
       const bool physical = s.coefficient > 0.0 || (s.coefficient < 0.0 && terms[b].mayBeInflow());
       if (!physical || !(s.reduction > best.reduction)) continue;
-      best = {terms[b].withSign(s.coefficient > 0.0 ? +1 : -1), s.reduction};
+      best.term = terms[b].withSign(s.coefficient > 0.0 ? +1 : -1);
+      best.reduction = s.reduction;
       best_index = static_cast<int>(b);
     }
     return best_index;
@@ -241,6 +250,8 @@ Screened bestOfShape(const BalanceScreen& screen, const FormulaTerm& shape, cons
   if (at < 0) return best;
   const double lo = coarse[std::max(at - 1, 0)];
   const double hi = coarse[std::min<int>(at + 1, static_cast<int>(coarse.size()) - 1)];
+  best.lo = lo;
+  best.hi = hi;
   terms.clear();
   for (int i = 0; i < options.refinement; ++i) {
     terms.push_back(shape.withBreakpoint(lo + (hi - lo) * (i + 0.5) / options.refinement));
@@ -258,6 +269,69 @@ std::vector<Screened> screenAll(const BalanceScreen& screen, double supply_press
   }
   std::sort(all.begin(), all.end(), [](const Screened& a, const Screened& b) { return a.reduction > b.reduction; });
   return all;
+}
+
+// Free-run error [Pa] of `config` fitted on cycles [first, last] and run free on them.
+double freeRunRms(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                  const IdentificationConfig& config, int first, int last) {
+  const HydraulicModel model = HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+  const HydraulicEstimate e = fitOnCycles(grid, strokes, config, first, last);
+  ParameterVector theta(model.parameterCount());
+  for (int i = 0; i < model.parameterCount(); ++i) theta(i) = e.parameters[i].value;
+  FreeRunPressure free_run(model, config.min_pressure);
+  const auto [begin, end] = strokes.range(first, last);
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
+    GridSample g = grid[i];
+    if (i == begin) g.discontinuity = true;
+    const double p = free_run.step(g, theta);
+    if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
+    sum += (g.p - p) * (g.p - p);
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
+}
+
+// The screen ranks shapes by the equation error, which weighs fast transients by their noise; the
+// breakpoint a user adds is the one that makes the model run best. A golden-section search on the
+// free-run error over the screen's bracket, on at most a dozen cycles, settles it (0.8 % of the bracket).
+FormulaTerm refineBreakpoint(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                             const IdentificationConfig& model, const Screened& screened,
+                             const FormulaSearchOptions& options) {
+  if (!screened.term.hasBreakpoint() || !(screened.hi > screened.lo)) return screened.term;
+  const int last = std::min(strokes.cycles, options.refinement_cycles) - 1;
+  const auto error = [&](double b) {
+    IdentificationConfig extended = model;
+    extended.custom_effects.push_back(screened.term.name() + "=" + screened.term.withBreakpoint(b).expression());
+    try {
+      return freeRunRms(grid, strokes, extended, 0, last);
+    } catch (const std::invalid_argument&) {
+      return std::numeric_limits<double>::infinity();
+    }
+  };
+  constexpr double kGolden = 0.6180339887498949;
+  double a = screened.lo, b = screened.hi;
+  double c = b - kGolden * (b - a), d = a + kGolden * (b - a);
+  double fc = error(c), fd = error(d);
+  for (int i = 0; i < options.refinement_steps; ++i) {
+    if (fc < fd) {
+      b = d;
+      d = c;
+      fd = fc;
+      c = b - kGolden * (b - a);
+      fc = error(c);
+    } else {
+      a = c;
+      c = d;
+      fc = fd;
+      d = a + kGolden * (b - a);
+      fd = error(d);
+    }
+  }
+  const double at_screen = error(screened.term.breakpoint());
+  const double best = fc < fd ? c : d;
+  return std::min(fc, fd) < at_screen ? screened.term.withBreakpoint(best) : screened.term;
 }
 
 std::string uniqueName(const std::string& wanted, const IdentificationConfig& model) {
@@ -290,6 +364,7 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
   }
   const HeldOutErrors with = heldOutErrors(grid, strokes, extended, ranking.split(strokes.cycles));
   const HeldOutComparison test = compareHeldOut(base, with, ranking.significance);
+  proposal.held_out = with;
   proposal.error_reduction = test.error_reduction;
   proposal.held_out_error_rms = with.rms;
   proposal.held_out_cycles = test.cycles;
@@ -350,9 +425,12 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
   std::vector<std::pair<FormulaProposal, int>> proven;
   for (const auto& candidate : screened) {
     if (static_cast<int>(proven.size()) >= options.verified) break;
+    // Proving costs two fits and a free run over the recording: only shapes the screen rates close to
+    // the best are worth it.
+    if (candidate.reduction < options.prove_fraction * screened.front().reduction) break;
     try {
-      proven.emplace_back(prove(grid, strokes, model, base, candidate.term, screen, ranking),
-                          candidate.term.complexity());
+      const FormulaTerm term = refineBreakpoint(grid, strokes, model, candidate, options);
+      proven.emplace_back(prove(grid, strokes, model, base, term, screen, ranking), term.complexity());
     } catch (const std::invalid_argument&) {
       // A breakpoint at the edge of the data can leave a term that is zero over the operating range the
       // custom effect is probed on: not a formula a user could add; the next shape is tried instead.
@@ -361,11 +439,7 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
   orderProposals(proven, options.tie);
   std::vector<FormulaProposal> result;
   for (auto& p : proven) result.push_back(std::move(p.first));
-  if (held_out && !result.empty() && result.front().verdict == "missing") {
-    IdentificationConfig extended = model;
-    extended.custom_effects.push_back(result.front().spec());
-    held_out->push_back(heldOutErrors(grid, strokes, extended, ranking.split(strokes.cycles)));
-  }
+  if (held_out && !result.empty() && result.front().verdict == "missing") held_out->push_back(result.front().held_out);
   return result;
 }
 
@@ -431,7 +505,7 @@ void addFormulaProposals(const std::vector<GridSample>& grid, const StrokeSegmen
     IdentificationConfig full = recommended;
     for (const auto* p : add) full.custom_effects.push_back(p->spec());
     const int split = ranking_options.split(strokes.cycles);
-    const HeldOutErrors with_all = heldOutErrors(grid, strokes, full, split);
+    const HeldOutErrors& with_all = add.back()->held_out;
     for (const auto& step : ranking->steps) {
       IdentificationConfig without = full;
       without.effects.erase(std::find(without.effects.begin(), without.effects.end(), step.add));

@@ -98,14 +98,14 @@ HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeS
   };
   auto [estimate, physical] = pass(nullptr);
   // Valve-shape effects are linearised at the running estimate; without forgetting, rows linearised at an
-  // early, wrong overlap or tank pressure would weigh as much as the rest for good. Two more passes with
-  // every row linearised at the previous pass's estimate remove that (issue 16).
+  // early, wrong overlap or tank pressure would weigh as much as the rest for good. A second pass with
+  // every row linearised at the first pass's estimate removes that (issue 16).
   const HydraulicModel model = HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
   bool reshapes_valve = false;
   for (int i = 0; i < model.effectCount(); ++i) {
     reshapes_valve |= model.effect(i).coupling() == Effect::Coupling::kValveShape;
   }
-  for (int extra = 0; reshapes_valve && extra < 2; ++extra) {
+  for (int extra = 0; reshapes_valve && extra < 1; ++extra) {
     if (estimate.updates == 0 || !physical.allFinite()) break;
     std::tie(estimate, physical) = pass(&physical);
   }

@@ -11,6 +11,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "die_cushion_ident/core/formula_search.h"
 #include "message_conversions.h"
 
 namespace die_cushion_ident {
@@ -297,6 +298,8 @@ void IdentificationNode::rankEffects() {
   estimateTopicDelays(grid);
   const StrokeSegmentation strokes = segmentStrokes(grid);
   ranking_ = die_cushion_ident::rankEffects(grid, strokes, config_);
+  // The formula search only where structured error is left, as offline without --propose.
+  if (ranking_->residual_unexplained) addFormulaProposals(grid, strokes, config_, &*ranking_);
   die_cushion_ident::EffectRanking msg;
   msg.header.stamp = ros::Time(std::max(last_grid_.t, 0.0));
   msg.cycles = strokes.cycles;
@@ -310,6 +313,16 @@ void IdentificationNode::rankEffects() {
   msg.best_error_rms = ranking_->best_error_rms;
   msg.noise_rms = ranking_->noise_rms;
   msg.residual_unexplained = ranking_->residual_unexplained;
+  for (const auto& step : ranking_->steps) {
+    msg.steps.push_back(step.add);
+    msg.step_error_rms.push_back(step.held_out_error_rms);
+  }
+  for (const auto& p : ranking_->proposals) {
+    msg.proposals.push_back(p.spec());
+    msg.proposal_error_reduction.push_back(p.error_reduction);
+    msg.proposal_verdicts.push_back(p.verdict);
+    msg.proposal_explanations.push_back(p.explanation);
+  }
   msg.conclusion = ranking_->conclusion;
   ranking_pub_.publish(msg);
 }
@@ -618,6 +631,8 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
     }
     if (!ranking_->candidates.empty() && ranking_->candidates.front().verdict == "missing") {
       where += "; suspected missing effect: " + ranking_->candidates.front().effect;
+    } else if (!ranking_->proposals.empty() && ranking_->proposals.front().verdict == "missing") {
+      where += "; proposed formula: " + ranking_->proposals.front().spec();
     } else if (ranking_->residual_unexplained) {
       where += "; not explained by the effect library: consider a custom effect";
     }

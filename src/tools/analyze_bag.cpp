@@ -331,7 +331,12 @@ int run(int argc, char** argv) {
   }
 
   analysis->proposeAlways(options.propose);
-  OfflineResult result = analysis->finish([&](const std::string& step) { log(step); });
+  OfflineResult result = analysis->finish([&](const std::string& step) {
+    char elapsed[32];
+    std::snprintf(elapsed, sizeof(elapsed), "%.1f s: ",
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+    log(elapsed + step);
+  });
   result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
   if (delays) {
     result.delay_estimate = delays;

@@ -43,6 +43,7 @@ struct FormulaProposal {
   /// The residual against the chosen signal, for the report: bin centres [signal unit], the model's
   /// equation error [m^3/s] and the fitted term [m^3/s], each averaged over the bin.
   std::vector<double> bin_signal, bin_residual, bin_term;
+  HeldOutErrors held_out;  ///< per held-out cycle, for the tests built on this proposal
 };
 
 /// One verified addition of the staircase: the effect and the held-out error of the model with it.

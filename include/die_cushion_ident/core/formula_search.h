@@ -12,10 +12,13 @@ namespace die_cushion_ident {
 struct FormulaSearchOptions {
   int breakpoints = 24;      ///< coarse breakpoint grid per shape (quantiles of the signal)
   int refinement = 16;       ///< fine grid between the best coarse point's neighbours
-  int verified = 3;          ///< shapes proven on held-out cycles per term
+  int refinement_cycles = 12;  ///< cycles of the golden-section search on the free-run error ...
+  int refinement_steps = 10;   ///< ... and its steps (the bracket shrinks to 0.8 %)
+  int verified = 3;          ///< shapes proven on held-out cycles per term, at most ...
+  double prove_fraction = 0.25;  ///< ... of those the screen rates at least this fraction of the best
   int max_terms = 2;         ///< one or two terms
   int window = 10;           ///< samples per integrated volume balance of the screen (20 ms)
-  std::size_t max_windows = 200000;  ///< more: every k-th window (an hour of data has 180 000)
+  std::size_t max_windows = 50000;  ///< more: every k-th window (an hour of data has 180 000)
   double tie = 0.03;         ///< error reductions closer than this explain "the same": the simpler wins
 };
 

@@ -32,8 +32,8 @@ struct HeldOutComparison {
 HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors& with, double significance);
 
 /// Fits `config`'s model to the grid samples of cycles [first_cycle, last_cycle] (all: INT_MIN, INT_MAX)
-/// without forgetting and returns the estimate. Models with valve-shape effects take two more passes,
-/// each linearised at the previous pass's estimate.
+/// without forgetting and returns the estimate. Models with valve-shape effects take a second pass,
+/// linearised at the first pass's estimate.
 HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                               const IdentificationConfig& config, int first_cycle, int last_cycle);
 
