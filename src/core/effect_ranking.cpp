@@ -224,6 +224,10 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
     added.push_back(std::move(top.candidate));
   };
   while (enough) {
+    // Once an effect is in, the model's own free-run floor (2-4 x the sensor noise on simulated plants
+    // with the true law) is what is left to explain; another "missing" effect there fits that floor, not
+    // physics. So the staircase stops when the error has reached the noise.
+    if (!ranking.steps.empty() && current.rms <= options.staircase_noise_factor * ranking.noise_rms) break;
     if (!round.empty() && round.front().candidate.verdict == "missing") {
       add(std::move(round.front()), "");
     } else if (ranking.steps.empty() && current.rms > floor && round.size() >= 2) {

@@ -401,9 +401,8 @@ void orderProposals(std::vector<std::pair<FormulaProposal, int>>& proposals, dou
   std::sort(proposals.begin(), proposals.end(), [&](const auto& a, const auto& b) {
     const bool a_missing = a.first.verdict == "missing", b_missing = b.first.verdict == "missing";
     if (a_missing != b_missing) return a_missing;
-    if (std::abs(a.first.error_reduction - b.first.error_reduction) <= tie && a.second != b.second) {
-      return a.second < b.second;
-    }
+    const double ea = a.first.held_out_error_rms, eb = b.first.held_out_error_rms;
+    if (std::abs(ea - eb) <= tie * std::min(ea, eb) && a.second != b.second) return a.second < b.second;
     return a.first.error_reduction > b.first.error_reduction;
   });
 }

@@ -83,6 +83,8 @@ struct EffectRankingOptions {
   int min_held_out_cycles = 3;         ///< fewer: every verdict is inconclusive
   /// The best model's held-out error above this multiple of the noise (and above 1 bar) is "unexplained".
   double unexplained_noise_factor = 6.0;
+  /// After the first step, the staircase stops once the held-out error is below this multiple of the noise.
+  double staircase_noise_factor = 4.0;
   /// Cycles [0, split) and [split, cycles) are the two folds.
   int split(int cycles) const { return cycles / 2; }
 };

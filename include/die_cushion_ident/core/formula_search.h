@@ -19,7 +19,7 @@ struct FormulaSearchOptions {
   int max_terms = 2;         ///< one or two terms
   int window = 10;           ///< samples per integrated volume balance of the screen (20 ms)
   std::size_t max_windows = 50000;  ///< more: every k-th window (an hour of data has 180 000)
-  double tie = 0.03;         ///< error reductions closer than this explain "the same": the simpler wins
+  double tie = 0.1;          ///< held-out errors within this fraction explain "the same": the simpler wins
 };
 
 /// Searches the typed space of FormulaTerm for the term that the model `model` misses, in two stages:
