@@ -80,7 +80,7 @@ class HiddenPair : public ::testing::TestWithParam<std::pair<std::string, std::s
 
 TEST_P(HiddenPair, TheStaircaseAddsExactlyBothAndReachesTheNoise) {
   const auto [first, second] = GetParam();
-  for (std::uint64_t seed : {11, 12, 13, 14, 15, 16, 17, 18}) {
+  for (std::uint64_t seed : {11, 12, 13}) {
     SCOPED_TRACE(first + " + " + second + ", seed " + std::to_string(seed));
     const Recording r = record(testing::randomPlant(seed, {first, second}));
     const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));

@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -213,6 +214,50 @@ TEST_P(SensorMatrix, EveryConfigurationGivesTheFullSensorVerdict) {
 
 INSTANTIATE_TEST_SUITE_P(HiddenEffect, SensorMatrix, ::testing::ValuesIn(kHiddenEffects),
                          [](const auto& info) { return info.param; });
+
+// Issue 12 on every configuration of the fraction: a relief valve outside the library gets the same
+// formula, and a worn seal with air in the oil the same staircase, whatever the press delivers.
+class BeyondOneEffect : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { std::system(("mkdir -p " + kWork).c_str()); }
+};
+
+TEST_F(BeyondOneEffect, EveryConfigurationGetsTheSameFormulaAndStaircase) {
+  for (const SensorConfiguration& c : configurations()) {
+    SCOPED_TRACE(c.name());
+    const std::string config = configFile(c);
+    const std::string relief_bag = kWork + "/relief_" + c.name() + ".bag";
+    ASSERT_EQ(run(kTools + "/simulate_bag " + relief_bag + " --cycles 6 --seed 21 --custom-effect " +
+                  "'relief_valve=max(p-140e5,0)' --set relief_valve_theta=3e-10" + c.simulateOptions())
+                  .status,
+              0);
+    const Analysis relief = analyze(relief_bag, config, kWork + "/relief_" + c.name());
+    ASSERT_EQ(relief.status, 0) << relief.output;
+    ASSERT_TRUE(relief.summary["proposals"].IsSequence() && relief.summary["proposals"].size() > 0) << relief.output;
+    const YAML::Node& top = relief.summary["proposals"][0];
+    const std::string expression = top["expression"].as<std::string>();
+    EXPECT_EQ(expression.rfind("relief=max(p-", 0), 0u) << expression;
+    EXPECT_EQ(top["verdict"].as<std::string>(), "missing") << top["explanation"];
+    EXPECT_NEAR(top["breakpoint"].as<double>() / 140e5, 1.0, 0.10) << expression;
+    EXPECT_LT(top["held_out_error_rms"].as<double>(), 4.0 * kPressureNoise) << expression;
+
+    const std::string pair_bag = kWork + "/pair_" + c.name() + ".bag";
+    ASSERT_EQ(run(kTools + "/simulate_bag " + pair_bag + " --cycles 6 --seed 12 --plant-effects " +
+                  "leakage,entrained_air --set leakage_conductance=2e-11 --set air_volume=4e-4" + c.simulateOptions())
+                  .status,
+              0);
+    const Analysis pair = analyze(pair_bag, config, kWork + "/pair_" + c.name());
+    ASSERT_EQ(pair.status, 0) << pair.output;
+    ASSERT_EQ(pair.summary["steps"].size(), 2u) << pair.summary["adequacy"]["conclusion"];
+    std::vector<std::string> added = {pair.summary["steps"][0]["add"].as<std::string>(),
+                                      pair.summary["steps"][1]["add"].as<std::string>()};
+    std::sort(added.begin(), added.end());
+    EXPECT_EQ(added, (std::vector<std::string>{"entrained_air", "leakage"}));
+    std::printf("%-38s %s (%.2f bar), steps %s + %s (%.2f bar)\n", c.name().c_str(), expression.c_str(),
+                top["held_out_error_rms"].as<double>() * 1e-5, added[0].c_str(), added[1].c_str(),
+                pair.summary["steps"][1]["held_out_error_rms"].as<double>() * 1e-5);
+  }
+}
 
 class RecordingEdges : public ::testing::Test {
  protected:
