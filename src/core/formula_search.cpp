@@ -369,6 +369,7 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
   proposal.held_out_error_rms = with.rms;
   proposal.held_out_cycles = test.cycles;
   proposal.t_statistic = test.t_statistic;
+  proposal.p_value = test.p_value;
   const std::string physics = term.explanation();
   if (!(theta > 0.0)) {
     proposal.verdict = "not_needed";
@@ -434,6 +435,19 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
       // A breakpoint at the edge of the data can leave a term that is zero over the operating range the
       // custom effect is probed on: not a formula a user could add; the next shape is tried instead.
     }
+  }
+  // Holm's correction over the shapes proven (the screen's choice among all shapes is not counted: see
+  // doc/formula_search.md, limits).
+  std::vector<double> p_values;
+  for (const auto& p : proven) p_values.push_back(p.first.p_value);
+  const std::vector<bool> rejected = holmRejected(p_values, ranking.significance);
+  for (std::size_t i = 0; i < proven.size(); ++i) {
+    FormulaProposal& p = proven[i].first;
+    if (p.verdict != "missing" || rejected[i]) continue;
+    p.verdict = "inconclusive";
+    p.explanation = p.explanation.substr(0, p.explanation.find(';')) + "; " + percent(p.error_reduction) +
+                    " less held-out error, but not significant once corrected for the " +
+                    std::to_string(proven.size()) + " formulas tried (Holm)";
   }
   orderProposals(proven, options.tie);
   std::vector<FormulaProposal> result;

@@ -29,12 +29,12 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
     FreeRunPressure free_run(model, config.min_pressure);
     std::vector<double> sum(strokes.cycles, 0.0);
     std::vector<int> count(strokes.cycles, 0);
-    const std::size_t stretch_begin = strokes.range(test_first, test_last).first;
     for (int c = test_first; c <= test_last; ++c) {
       const auto [begin, end] = strokes.range(c, c);
       for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
         GridSample g = grid[i];
-        if (i == stretch_begin) g.discontinuity = true;  // start anchored at each held-out stretch
+        // Anchored at each cycle's start: a cycle's error is its own, not carried over from the one before.
+        if (i == begin) g.discontinuity = true;
         const double p = free_run.step(g, theta);
         if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
         sum[c] += (g.p - p) * (g.p - p);
@@ -74,18 +74,36 @@ HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors&
   result.t_statistic = sd > 0.0 ? mean / (sd / std::sqrt(n)) : (mean < 0 ? -1e9 : 1e9);
   if (n > 1) {
     // Exact Student quantile (the Cornish-Fisher expansion used before was 1.8 % low at 3 degrees of freedom).
-    const double critical =
-        boost::math::quantile(boost::math::students_t_distribution<double>(n - 1), 1.0 - significance);
+    const boost::math::students_t_distribution<double> student(n - 1);
+    const double critical = boost::math::quantile(student, 1.0 - significance);
     result.significant = result.t_statistic < -critical;
+    result.p_value = std::isfinite(result.t_statistic) && std::abs(result.t_statistic) < 1e8
+                         ? boost::math::cdf(student, result.t_statistic)
+                         : (result.t_statistic < 0 ? 0.0 : 1.0);
   }
   return result;
+}
+
+std::vector<bool> holmRejected(const std::vector<double>& p_values, double significance) {
+  std::vector<std::size_t> order(p_values.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p_values[a] < p_values[b]; });
+  std::vector<bool> rejected(p_values.size(), false);
+  const std::size_t m = p_values.size();
+  for (std::size_t k = 0; k < m; ++k) {
+    if (!(p_values[order[k]] <= significance / static_cast<double>(m - k))) break;
+    rejected[order[k]] = true;
+  }
+  return rejected;
 }
 
 HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                               const IdentificationConfig& config, int first_cycle, int last_cycle) {
   IdentificationConfig batch = config;
   batch.forgetting_factor = 1.0;  // constant parameters over the whole stretch: least squares
-  const auto [begin, end] = strokes.range(first_cycle, last_cycle);  // one contiguous stretch of the grid
+  // One contiguous stretch of the grid (plain variables: a lambda cannot capture structured bindings in C++17).
+  const auto stretch = strokes.range(first_cycle, last_cycle);
+  const std::size_t begin = stretch.first, end = stretch.second;
   const auto pass = [&](const ParameterVector* frozen_point) {
     HydraulicIdentifier identifier(batch);
     if (frozen_point) identifier.freezeLinearisationPoint(*frozen_point);

@@ -104,7 +104,17 @@ bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, cons
     channels[0] = model_.geometry().piston_area * (s2.x - s1.x);
     const double w_outer = -dt_ / 24.0, w_inner = 13.0 * dt_ / 24.0;
     for (int j = 0; j < n_; ++j) {
-      const double capacitive = 0.5 * (nodes_[1].a[j] + nodes_[2].a[j]) * dp;
+      double capacitive = 0.5 * (nodes_[1].a[j] + nodes_[2].a[j]) * dp;
+      if (j >= HydraulicModel::kFirstEffect) {
+        HydraulicSignals from, to;
+        from.p = s1.p;
+        from.x = s1.x;
+        to.p = s2.p;
+        to.x = s2.x;
+        double exact = 0.0;
+        const Effect& e = model_.effect(j - HydraulicModel::kFirstEffect);
+        if (e.coupling() == Effect::Coupling::kAdditive && e.capacitanceIncrement(from, to, &exact)) capacitive = exact;
+      }
       const double flow =
           w_outer * (nodes_[0].g[j] + nodes_[3].g[j]) + w_inner * (nodes_[1].g[j] + nodes_[2].g[j]);
       channels[j + 1] = capacitive + flow;

@@ -173,6 +173,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::Key << "explanation" << YAML::Value << c.explanation;
     out << YAML::Key << "held_out_cycles" << YAML::Value << c.held_out_cycles;
     out << YAML::Key << "t_statistic" << YAML::Value << c.t_statistic;
+    out << YAML::Key << "p_value" << YAML::Value << c.p_value;
     out << YAML::Key << "parameters" << YAML::Value;
     emitParameters(out, c.parameters);
     out << YAML::EndMap;
@@ -203,6 +204,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::Key << "held_out_error_rms" << YAML::Value << p.held_out_error_rms;
     out << YAML::Key << "held_out_cycles" << YAML::Value << p.held_out_cycles;
     out << YAML::Key << "t_statistic" << YAML::Value << p.t_statistic;
+    out << YAML::Key << "p_value" << YAML::Value << p.p_value;
     if (!p.together_with.empty()) out << YAML::Key << "together_with" << YAML::Value << p.together_with;
     out << YAML::EndMap;
   }

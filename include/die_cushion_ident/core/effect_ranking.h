@@ -22,6 +22,7 @@ struct CandidateEffect {
   std::vector<IdentifiedParameter> parameters;  ///< the effect's parameters, fitted on all the data
   int held_out_cycles = 0;
   double t_statistic = 0.0;  ///< paired t of log(per-cycle error ratio) across held-out cycles (< 0: better)
+  double p_value = 1.0;      ///< its one-sided p; `missing` needs it significant after Holm's correction
 };
 
 /// A formula for error that no library effect explains, proven on held-out cycles like a library candidate.
@@ -37,6 +38,7 @@ struct FormulaProposal {
   std::string verdict;              ///< missing | not_needed | inconclusive
   int held_out_cycles = 0;
   double t_statistic = 0.0;
+  double p_value = 1.0;
   std::vector<IdentifiedParameter> parameters;  ///< NAME_theta in physical units, fitted on all the data
   std::string explanation;
   std::string together_with;  ///< a second term: the proposal it extends (proposed only with it)

@@ -9,7 +9,8 @@
 namespace die_cushion_ident {
 
 /// Free-run pressure error of one model on press cycles it was not fitted to: fitted without forgetting
-/// on cycles [0, split), run free on [split, cycles), and the other way round.
+/// on cycles [0, split), run free on [split, cycles), and the other way round. The free run starts from
+/// the measurement at each cycle.
 struct HeldOutErrors {
   std::vector<double> cycle_rms;  ///< [Pa] per cycle id; NaN where a cycle has no held-out sample
   double rms = 0.0;               ///< [Pa] over all held-out samples
@@ -27,7 +28,12 @@ struct HeldOutComparison {
   int cycles = 0;                ///< cycles paired (by cycle id)
   /// t below the exact one-sided Student quantile at `significance` (and at least two cycles).
   bool significant = false;
+  double p_value = 1.0;  ///< one-sided, P(T <= t) with cycles - 1 degrees of freedom
 };
+
+/// Holm's step-down correction: which of m one-sided tests are significant at family-wise level
+/// `significance` (the i-th smallest p-value against significance / (m - i)).
+std::vector<bool> holmRejected(const std::vector<double>& p_values, double significance);
 
 HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors& with, double significance);
 

@@ -17,10 +17,19 @@ class EntrainedAir final : public Effect {
   }
   ParameterInfo parameter() const override { return {"air_volume", "m^3", 1e-4, 0.0, 1.0}; }
   double capacitancePerUnit(const HydraulicSignals& s) const override {
-    // Absolute pressure cannot fall below vapour pressure; the floor keeps the term finite in cavitation.
-    const double absolute = std::max(s.p + kAtmosphericPressure, 2000.0);
+    const double absolute = absolutePressure(s.p);
     return kAtmosphericPressure / (absolute * absolute);
   }
+  /// The air volume per unit V_a0 released between two pressures: p_atm (1/p_from - 1/p_to), absolute.
+  bool capacitanceIncrement(const HydraulicSignals& from, const HydraulicSignals& to,
+                            double* increment) const override {
+    *increment = kAtmosphericPressure * (1.0 / absolutePressure(from.p) - 1.0 / absolutePressure(to.p));
+    return true;
+  }
+
+ private:
+  // Absolute pressure cannot fall below vapour pressure; the floor keeps the term finite in cavitation.
+  static double absolutePressure(double gauge) { return std::max(gauge + kAtmosphericPressure, 2000.0); }
 };
 
 }  // namespace die_cushion_ident
