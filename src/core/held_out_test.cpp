@@ -3,6 +3,7 @@
 #include <boost/math/distributions/students_t.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <limits>
 #include <tuple>
@@ -97,20 +98,23 @@ std::vector<bool> holmRejected(const std::vector<double>& p_values, double signi
   return rejected;
 }
 
-HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                              const IdentificationConfig& config, int first_cycle, int last_cycle) {
+namespace {
+using Stretch = std::pair<std::size_t, std::size_t>;  // [begin, end) of the grid
+
+// A batch fit without forgetting over stretches of the grid, each starting afresh (a discontinuity).
+HydraulicEstimate fitOnStretches(const std::vector<GridSample>& grid, const IdentificationConfig& config,
+                                 const std::vector<Stretch>& stretches) {
   IdentificationConfig batch = config;
-  batch.forgetting_factor = 1.0;  // constant parameters over the whole stretch: least squares
-  // One contiguous stretch of the grid (plain variables: a lambda cannot capture structured bindings in C++17).
-  const auto stretch = strokes.range(first_cycle, last_cycle);
-  const std::size_t begin = stretch.first, end = stretch.second;
+  batch.forgetting_factor = 1.0;  // constant parameters over the whole recording: least squares
   const auto pass = [&](const ParameterVector* frozen_point) {
     HydraulicIdentifier identifier(batch);
     if (frozen_point) identifier.freezeLinearisationPoint(*frozen_point);
-    for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
-      GridSample g = grid[i];
-      if (i == begin) g.discontinuity = true;
-      identifier.push(g);
+    for (const Stretch& stretch : stretches) {
+      for (std::size_t i = stretch.first; i < stretch.second && i < grid.size(); ++i) {
+        GridSample g = grid[i];
+        if (i == stretch.first) g.discontinuity = true;
+        identifier.push(g);
+      }
     }
     return std::make_pair(identifier.estimate(), identifier.physicalParameters());
   };
@@ -123,11 +127,48 @@ HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeS
   for (int i = 0; i < model.effectCount(); ++i) {
     reshapes_valve |= model.effect(i).coupling() == Effect::Coupling::kValveShape;
   }
-  for (int extra = 0; reshapes_valve && extra < 1; ++extra) {
-    if (estimate.updates == 0 || !physical.allFinite()) break;
-    std::tie(estimate, physical) = pass(&physical);
-  }
+  if (reshapes_valve && estimate.updates > 0 && physical.allFinite()) std::tie(estimate, physical) = pass(&physical);
   return estimate;
+}
+}  // namespace
+
+HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                              const IdentificationConfig& config, int first_cycle, int last_cycle) {
+  return fitOnStretches(grid, config, {strokes.range(first_cycle, last_cycle)});
+}
+
+bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups) {
+  const int cycles = strokes.cycles;
+  const int g_count = std::min(groups, cycles);
+  if (g_count < 4 || estimate->parameters.empty()) return false;
+  const std::size_t n = estimate->parameters.size();
+  const auto all = strokes.range(INT_MIN, INT_MAX);
+  std::vector<std::vector<double>> replicates;
+  for (int g = 0; g < g_count; ++g) {
+    // Group g: cycles [g * cycles / G, (g + 1) * cycles / G), contiguous; the rest of the recording
+    // (with whatever precedes the first and follows the last cycle) is refitted without it.
+    const int first = g * cycles / g_count, last = (g + 1) * cycles / g_count - 1;
+    const auto left_out = strokes.range(first, last);
+    std::vector<Stretch> kept;
+    if (left_out.first > all.first) kept.emplace_back(all.first, left_out.first);
+    if (all.second > left_out.second) kept.emplace_back(left_out.second, all.second);
+    const HydraulicEstimate e = fitOnStretches(grid, config, kept);
+    if (e.updates == 0 || e.parameters.size() != n) return false;
+    std::vector<double> values(n);
+    for (std::size_t k = 0; k < n; ++k) values[k] = e.parameters[k].value;
+    replicates.push_back(std::move(values));
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    double mean = 0.0;
+    for (const auto& r : replicates) mean += r[k] / g_count;
+    double squares = 0.0;
+    for (const auto& r : replicates) squares += (r[k] - mean) * (r[k] - mean);
+    const double se = std::sqrt((g_count - 1.0) / g_count * squares);
+    if (!std::isfinite(se)) return false;
+    estimate->parameters[k].std = se;
+  }
+  return true;
 }
 
 }  // namespace die_cushion_ident

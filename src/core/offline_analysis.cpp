@@ -9,6 +9,29 @@
 
 namespace die_cushion_ident {
 
+std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<GridSample>& grid,
+                                                             const StrokeSegmentation& strokes,
+                                                             const IdentificationConfig& config,
+                                                             const HydraulicEstimate& estimate, double factor) {
+  std::vector<std::string> found;
+  HydraulicEstimate resampled = estimate;
+  if (!applyCycleJackknife(grid, strokes, config, &resampled)) return found;
+  for (std::size_t k = 0; k < estimate.parameters.size(); ++k) {
+    const IdentifiedParameter& p = estimate.parameters[k];
+    const double spread = resampled.parameters[k].std;
+    if (!(spread > factor * p.std) || !(std::abs(p.value) > 0.0)) continue;
+    char text[400];
+    std::snprintf(text, sizeof(text),
+                  "%s varies over the recording %.1f times more than its std says (%.3g %s +- %.2g, but "
+                  "+- %.2g between groups of press cycles): the model misses an effect that weighs "
+                  "differently from stroke to stroke, or the plant changed during the recording; treat its "
+                  "std as %.2g",
+                  p.name.c_str(), spread / p.std, p.value, p.unit.c_str(), p.std, spread, spread);
+    found.push_back(text);
+  }
+  return found;
+}
+
 OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
   pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) { grid_.push_back(g); });
   pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
@@ -175,6 +198,10 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
       for (const auto& doubt : uncertain) {
         r.warnings.push_back(doubt + ", but within 3 standard deviations of it: the recording does not pin "
                              "it down (more varied strokes would), or an effect the model lacks pulls it");
+      }
+      tell("refitting without each group of cycles (jackknife)");
+      for (const auto& spread : parametersThatVaryOverTheRecording(grid_, r.strokes, config_, r.model)) {
+        r.warnings.push_back(spread);
       }
     }
   }
