@@ -81,7 +81,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   // The effects' parameters fitted on all the data, in physical units.
   const HydraulicEstimate all = fitOnCycles(grid, strokes, extended, INT_MIN, INT_MAX);
   for (const auto& name : names) {
-    const ParameterInfo info = makeLibraryEffect(name)->parameter();
+    const ParameterInfo info = makeLibraryEffect(name)->parameterFor(model.geometry);
     for (const auto& p : all.parameters) {
       if (p.name != info.name) continue;
       candidate.parameters.push_back(p);
@@ -91,10 +91,13 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
       }
     }
   }
+  // A fit outside the physical range says "not this effect" however few cycles there are.
   if (!enough) {
-    candidate.verdict = "inconclusive";
-    candidate.explanation = physics + "; too few complete press cycles (" + std::to_string(strokes.cycles) +
-                            ") to judge on held-out cycles";
+    candidate.verdict = implausible.empty() ? "inconclusive" : "not_needed";
+    candidate.explanation = physics + (implausible.empty() ? "; too few complete press cycles (" +
+                                                                 std::to_string(strokes.cycles) +
+                                                                 ") to judge on held-out cycles"
+                                                           : implausible);
     return judged;
   }
   judged.physics = physics;

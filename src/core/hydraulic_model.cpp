@@ -70,7 +70,7 @@ void HydraulicModel::rebuildInfos() {
   // A K_v that passes the full swept volume in 1 s through half opening at 100 bar.
   infos_.push_back({"valve_flow_gain", "m^3/(s*Pa^0.5)", A * s / (0.5 * std::sqrt(100e5)), 0.0, 1.0});
   infos_.push_back({"dead_volume", "m^3", 0.25 * A * s, 0.0, 10.0 * A * s});
-  for (const auto& e : effects_) infos_.push_back(e->parameter());
+  for (const auto& e : effects_) infos_.push_back(e->parameterFor(geometry_));
   rate_dependent_flow_ = false;
   for (const auto& e : effects_) rate_dependent_flow_ |= e->outflowDependsOnPressureRate();
 }

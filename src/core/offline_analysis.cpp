@@ -229,7 +229,8 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     } else if (r.strokes.cycles < EffectRankingOptions().min_held_out_cycles) {
       cannot("only " + std::to_string(r.strokes.cycles) + " complete press stroke(s): the effect ranking "
              "needs " + std::to_string(EffectRankingOptions().min_held_out_cycles) +
-             " to judge on held-out strokes; every verdict is inconclusive");
+             " to judge on held-out strokes; every verdict is inconclusive (or not_needed where the fit is outside "
+             "the physical range)");
     }
   }
 

@@ -42,6 +42,9 @@ class Effect {
   /// One line of physics for a user who wonders what the effect means.
   virtual std::string explanation() const = 0;
   virtual ParameterInfo parameter() const = 0;
+  /// The parameter with its physical range scaled to this cushion (a sign check alone would accept an air
+  /// volume of 1 m^3 or a leakage of 6000 l/min at 100 bar).
+  virtual ParameterInfo parameterFor(const CylinderGeometry& /*geometry*/) const { return parameter(); }
   virtual Coupling coupling() const { return Coupling::kAdditive; }
 
   /// Additive effects: extra capacitance per unit of theta [m^3/Pa per unit].

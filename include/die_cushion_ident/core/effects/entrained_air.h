@@ -16,6 +16,12 @@ class EntrainedAir final : public Effect {
     return "free air in the oil makes the chamber soft at low pressure (isothermal gas compression)";
   }
   ParameterInfo parameter() const override { return {"air_volume", "m^3", 1e-4, 0.0, 1.0}; }
+  /// At most the swept volume A s as free air at atmospheric pressure.
+  ParameterInfo parameterFor(const CylinderGeometry& g) const override {
+    ParameterInfo info = parameter();
+    info.upper_bound = g.piston_area * g.stroke_length;
+    return info;
+  }
   double capacitancePerUnit(const HydraulicSignals& s) const override {
     const double absolute = absolutePressure(s.p);
     return kAtmosphericPressure / (absolute * absolute);

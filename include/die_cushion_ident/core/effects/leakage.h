@@ -16,6 +16,13 @@ class Leakage final : public Effect {
     // 1e-11 m^3/(s Pa): 6 l/min at 100 bar.
     return {"leakage_conductance", "m^3/(s*Pa)", 1e-11, 0.0, 1e-8};
   }
+  /// At most a leak that empties the swept volume A s in one second at the supply pressure (for the
+  /// default cushion 1e-9 m^3/(s Pa), 630 l/min at 100 bar).
+  ParameterInfo parameterFor(const CylinderGeometry& g) const override {
+    ParameterInfo info = parameter();
+    info.upper_bound = g.piston_area * g.stroke_length / g.supply_pressure;
+    return info;
+  }
   double outflowPerUnit(const HydraulicSignals& s) const override { return s.p; }
 };
 

@@ -14,6 +14,12 @@ class TankPressure final : public Effect {
     return "back pressure in the drain line: the valve drains less than expected at low chamber pressure";
   }
   ParameterInfo parameter() const override { return {"tank_pressure", "Pa", 3e5, 0.0, 50e5}; }
+  /// At most half the supply pressure: beyond, the valve could not drain the cushion at all.
+  ParameterInfo parameterFor(const CylinderGeometry& g) const override {
+    ParameterInfo info = parameter();
+    info.upper_bound = 0.5 * g.supply_pressure;
+    return info;
+  }
   Coupling coupling() const override { return Coupling::kValveShape; }
   void shapeValvePort(double y, double theta, ValvePort& port, ValvePort& derivative) const override {
     if (y > 0.0) {
