@@ -115,9 +115,18 @@ void DieCushionSimulator::step(std::vector<SimulatedMeasurement>* out) {
   state_.pressure_setpoint = now.pressure_setpoint;
   const double measured_p = state_.p + config_.sensors.pressure_noise * normal_(rng_);
   const bool continuous = !override_voltage_ && command_signal_;
+  double added = 0.0;
+  if (feed_forward_ && !override_voltage_ && !continuous) {
+    // The press program is known ahead: the command is taken from where the trajectory will be when the
+    // valve has answered (its lead time).
+    const auto ahead = program_.at(state_.t + feed_forward_->leadTime());
+    const double rate = (program_.at(state_.t + feed_forward_->leadTime() + dt).pressure_setpoint -
+                         ahead.pressure_setpoint) / dt;
+    added = feed_forward_->command(ahead.pressure_setpoint, rate, ahead.x, ahead.v);
+  }
   state_.u = override_voltage_ ? *override_voltage_
              : continuous      ? command_signal_(state_.t)
-                               : controller_.update(dt, measured_p, now.pressure_setpoint, now.v);
+                               : controller_.update(dt, measured_p, now.pressure_setpoint, now.v, added);
   if (out) sampleValve(out);
   const int substeps = std::max(1, static_cast<int>(std::ceil(dt / config_.integration_step - 1e-9)));
   const double h = dt / substeps;

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <random>
 #include <string>
@@ -11,6 +12,7 @@
 #include "die_cushion_ident/core/hydraulic_model.h"
 #include "die_cushion_ident/core/press_cycle.h"
 #include "die_cushion_ident/core/pressure_controller.h"
+#include "die_cushion_ident/core/pressure_feed_forward.h"
 #include "die_cushion_ident/core/servo_valve.h"
 #include "die_cushion_ident/core/uniform_resampler.h"
 
@@ -78,6 +80,11 @@ class DieCushionSimulator {
   /// While set (and no override is), the valve follows u(t) evaluated at every integration step: a command
   /// from a continuous signal generator rather than a held amplifier output. Messages sample it.
   void setValveCommandSignal(std::function<double(double)> signal) { command_signal_ = std::move(signal); }
+  /// While set, the model's feed-forward voltage for the program's pressure set-point (and its rate) at
+  /// the cushion's motion is added to the pressure controller's command (paper, Fig. 19).
+  void setFeedForward(std::shared_ptr<const PressureFeedForward> feed_forward) {
+    feed_forward_ = std::move(feed_forward);
+  }
   /// Changes a true parameter from now on (e.g. a bulk-modulus step when air is drawn in).
   void setTrueParameter(const std::string& name, double value);
 
@@ -104,6 +111,7 @@ class DieCushionSimulator {
   ServoValve valve_;
   std::optional<double> override_voltage_;
   std::function<double(double)> command_signal_;
+  std::shared_ptr<const PressureFeedForward> feed_forward_;
   State state_;
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};

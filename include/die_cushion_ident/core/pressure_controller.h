@@ -9,6 +9,7 @@ struct PressureControllerConfig {
   double nominal_flow_gain = 6e-6;  ///< the controller's K_v for velocity feed-forward [m^3/(s Pa^0.5)]
   double nominal_valve_gain = 0.1;  ///< the controller's valve gain [1/V]
   double max_voltage = 10.0;        ///< command limit [V]
+  bool velocity_feed_forward = true;  ///< the nominal y_ff below; false: PI alone
 };
 
 /// PI pressure control with velocity feed-forward, as on a die cushion: the drain edge passes the oil the
@@ -17,8 +18,9 @@ struct PressureControllerConfig {
 class PressureController {
  public:
   PressureController(const PressureControllerConfig& config, double piston_area, double supply_pressure);
-  /// Returns the command voltage for measured pressure p [Pa], set-point [Pa] and cushion speed v [m/s].
-  double update(double dt, double p_measured, double p_setpoint, double v);
+  /// Returns the command voltage for measured pressure p [Pa], set-point [Pa] and cushion speed v [m/s];
+  /// `added_voltage` (a model's feed-forward, PressureFeedForward) is added before the limit.
+  double update(double dt, double p_measured, double p_setpoint, double v, double added_voltage = 0.0);
   void reset() { integral_ = 0.0; }
 
  private:
