@@ -8,10 +8,8 @@ namespace die_cushion_ident {
 
 PressureFeedForward::PressureFeedForward(const HydraulicModel& model, const ParameterVector& physical,
                                          const ServoValveParameters& valve, double max_voltage)
-    : model_(model), physical_(physical), valve_gain_(valve.gain), max_voltage_(max_voltage) {
-  if (physical.size() != model.parameterCount() || !physical.allFinite()) {
-    throw std::invalid_argument("feed-forward: the parameters do not fit the model (or are not finite)");
-  }
+    : model_(model), valve_gain_(valve.gain), max_voltage_(max_voltage) {
+  setParameters(physical);
   if (!(std::abs(valve.gain) > 0.0) || !std::isfinite(valve.gain)) {
     throw std::invalid_argument("feed-forward: the valve gain must be finite and non-zero [1/V]");
   }
@@ -21,6 +19,14 @@ PressureFeedForward::PressureFeedForward(const HydraulicModel& model, const Para
   const double omega = 2.0 * M_PI * valve.natural_frequency;
   lead_ = std::max(0.0, (std::isfinite(valve.dead_time) ? valve.dead_time : 0.0) +
                             (omega > 0.0 && std::isfinite(omega) ? 2.0 * valve.damping / omega : 0.0));
+}
+
+void PressureFeedForward::setParameters(const ParameterVector& physical) {
+  if (physical.size() != model_.parameterCount() || !physical.allFinite() ||
+      !(physical(HydraulicModel::kBulkModulus) > 0.0)) {
+    throw std::invalid_argument("feed-forward: the parameters do not fit the model (or are not finite)");
+  }
+  physical_ = physical;
 }
 
 double PressureFeedForward::spoolOpening(double p_ref, double dp_ref, double x, double v) const {
@@ -52,6 +58,29 @@ double PressureFeedForward::command(double p_ref, double dp_ref, double x, doubl
   if (!finite) return 0.0;
   const double y = spoolOpening(p_ref, dp_ref, x, v);
   return std::clamp(y / valve_gain_, -max_voltage_, max_voltage_);
+}
+
+PressureReference::Push PressureReference::push(double stamp, double pressure) {
+  if (!std::isfinite(stamp) || !std::isfinite(pressure)) {
+    ++rejected_;
+    return Push::kNonFinite;
+  }
+  if (count_ > 0 && !(stamp > t1_)) {
+    ++rejected_;
+    return Push::kNotAdvancing;
+  }
+  t0_ = t1_;
+  p0_ = p1_;
+  t1_ = stamp;
+  p1_ = pressure;
+  ++count_;
+  return Push::kAccepted;
+}
+
+std::optional<std::pair<double, double>> PressureReference::at(double now, double ahead, double max_age) const {
+  if (count_ == 0 || !(now - t1_ <= max_age)) return std::nullopt;
+  const double rate = count_ >= 2 ? (p1_ - p0_) / (t1_ - t0_) : 0.0;
+  return std::make_pair(p1_ + rate * (now + ahead - t1_), rate);
 }
 
 }  // namespace die_cushion_ident

@@ -64,6 +64,9 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   sweep_ = ValveSweep(limits_);
   sweep_.setCommandHold(config_.valve_command_hold);
   joints_ = JointSelector(settings_.joint_name);
+  feed_forward_ = std::make_unique<FeedForwardPublisher>(nh_, pnh_, settings_.valve_gain,
+                                                         settings_.feed_forward_max_age, limits_.min_voltage,
+                                                         limits_.max_voltage);
   rebuildPipeline();
 
   estimate_pub_ = pnh_.advertise<ParameterEstimate>("estimate", 10);
@@ -97,6 +100,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   updater_.add("valve model", this, &IdentificationNode::diagnoseValve);
   updater_.add("model adequacy", this, &IdentificationNode::diagnoseAdequacy);
   updater_.add("input timing", this, &IdentificationNode::diagnoseTiming);
+  updater_.add("feed-forward", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { feed_forward_->diagnose(s); });
   diagnostic_timer_ =
       nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) { updater_.update(); });
 
@@ -126,6 +130,7 @@ void IdentificationNode::rebuildPipeline() {
   pipeline_->setStepCallback(
       [this](const HydraulicIdentifier& identifier) { onIdentificationStep(identifier); });
   free_run_ = std::make_unique<FreeRunPressure>(pipeline_->identifier().model(), config_.min_pressure);
+  if (feed_forward_) feed_forward_->modelChanged();
   classifier_.reset();
   window_.clear();
   ranking_.reset();
@@ -223,6 +228,8 @@ void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdenti
                             : "";
   // The comparison counts once the estimator has seen some excitation; before, the model is its start value.
   const bool estimator_started = identifier.updates() >= kUpdatesBeforeComparison;
+  feed_forward_->update(g, identifier.model(), identifier.physicalParameters(), estimator_started,
+                        last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr);
   if (estimator_started && std::isfinite(modelled_pressure_) && !free_run_->anchoredThisStep() &&
       std::isfinite(g.p)) {
     const double square = (g.p - modelled_pressure_) * (g.p - modelled_pressure_);

@@ -25,6 +25,7 @@
 #include "die_cushion_ident/core/topic_delay_estimator.h"
 #include "die_cushion_ident/core/valve_sweep.h"
 #include "die_cushion_ident/core/velocity_from_position.h"
+#include "feed_forward_publisher.h"
 #include "message_conversions.h"
 #include "ros_parameters.h"
 
@@ -127,6 +128,7 @@ class IdentificationNode {
   std::string frame_id_ = "die_cushion";
   std::uint64_t steps_since_markers_ = 0;
   ros::ServiceServer start_srv_, abort_srv_, effects_srv_, reset_srv_;
+  std::unique_ptr<FeedForwardPublisher> feed_forward_;
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostic_timer_;
 };

@@ -84,6 +84,8 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   readNumber(pnh, "adequacy_error_error", &problems, [&](double v) { settings->adequacy_error_error = v; });
   readNumber(pnh, "effect_ranking_window", &problems, [&](double v) { settings->effect_ranking_window = v; });
   readNumber(pnh, "effect_ranking_period", &problems, [&](double v) { settings->effect_ranking_period = v; });
+  readNumber(pnh, "valve_gain", &problems, [&](double v) { settings->valve_gain = v; });
+  readNumber(pnh, "feed_forward_max_age", &problems, [&](double v) { settings->feed_forward_max_age = v; });
   std::string form;
   if (pnh.hasParam("regression_form") &&
       (!pnh.getParam("regression_form", form) || !parseRegressionForm(form, &config->regression_form))) {
@@ -109,6 +111,12 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   positive("adequacy_warn_error", settings->adequacy_warn_error);
   positive("adequacy_error_error", settings->adequacy_error_error);
   positive("effect_ranking_period", settings->effect_ranking_period);
+  positive("feed_forward_max_age", settings->feed_forward_max_age);
+  if (pnh.hasParam("valve_gain") && !(std::isfinite(settings->valve_gain) && settings->valve_gain != 0.0)) {
+    std::ostringstream s;
+    s << "~valve_gain = " << settings->valve_gain << " is invalid: allowed finite and non-zero [1/V]";
+    problems.push_back(s.str());
+  }
   if (!(settings->effect_ranking_window >= 5.0 && settings->effect_ranking_window <= 3600.0)) {
     std::ostringstream s;
     s << "~effect_ranking_window = " << settings->effect_ranking_window << " is invalid: allowed [5, 3600] s";

@@ -2,6 +2,7 @@
 
 #include <ros/node_handle.h>
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,10 @@ struct NodeSettings {
   double effect_ranking_window = 30.0;  ///< [s] of recent data the live effect ranking looks at
   double effect_ranking_period = 10.0;  ///< [s] between two rankings
   std::string joint_name;  ///< the cushion's joint in the position topic; "" = the only one, else index 0
+  /// [1/V] the valve's static gain for ~feed_forward until a sweep identifies the valve; NaN: no
+  /// feed-forward before a sweep (an unknown valve gain must not become a command).
+  double valve_gain = std::numeric_limits<double>::quiet_NaN();
+  double feed_forward_max_age = 0.05;  ///< [s] an older pressure_setpoint is not used
 };
 
 /// A list of strings: a YAML list, or one string "a,b" / "[a, b]" as given on a command line (commas

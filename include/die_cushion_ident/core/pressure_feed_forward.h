@@ -1,5 +1,9 @@
 #pragma once
 
+#include <cstdint>
+#include <optional>
+#include <utility>
+
 #include "die_cushion_ident/core/hydraulic_model.h"
 #include "die_cushion_ident/core/servo_valve.h"
 
@@ -18,11 +22,14 @@ namespace die_cushion_ident {
 /// (nothing is added to the PI).
 class PressureFeedForward {
  public:
-  /// `physical`: the model's identified parameters; `valve`: the valve model (gain [1/V] for the static
-  /// inverse, dead time, natural frequency and damping for the lead). Throws std::invalid_argument for a
-  /// non-positive valve gain or voltage limit or parameters that do not fit the model.
+  /// `model` must outlive this object (it is not copied: a custom effect's copy costs a probe of its
+  /// operating range); `physical`: its identified parameters; `valve`: the valve model (gain [1/V] for the
+  /// static inverse, dead time, natural frequency and damping for the lead). Throws std::invalid_argument
+  /// for a zero or non-finite valve gain, a non-positive voltage limit or parameters that do not fit.
   PressureFeedForward(const HydraulicModel& model, const ParameterVector& physical,
                       const ServoValveParameters& valve, double max_voltage);
+  /// New identified parameters (same model); throws std::invalid_argument as the constructor.
+  void setParameters(const ParameterVector& physical);
 
   /// Spool opening [-] (in [-1, 1]) that makes the model's pressure rate equal dp_ref at p_ref.
   double spoolOpening(double p_ref, double dp_ref, double x, double v) const;
@@ -34,11 +41,30 @@ class PressureFeedForward {
   double leadTime() const { return lead_; }
 
  private:
-  HydraulicModel model_;
+  const HydraulicModel& model_;
   ParameterVector physical_;
   double valve_gain_;
   double max_voltage_;
   double lead_;
+};
+
+/// The pressure set-point as a cell controller streams it: the newest value and its rate from the last two
+/// samples, extrapolated to the time the valve will answer. NaN values and stamps that do not advance are
+/// refused and counted; a reference older than the allowed age is not used.
+class PressureReference {
+ public:
+  enum class Push { kAccepted, kNonFinite, kNotAdvancing };
+  Push push(double stamp, double pressure);
+  /// {pressure, rate} at `now + ahead` [Pa, Pa/s], or nothing when no sample is fresher than `max_age` at
+  /// `now`.
+  std::optional<std::pair<double, double>> at(double now, double ahead, double max_age) const;
+  bool received() const { return count_ > 0; }
+  double newestStamp() const { return t1_; }
+  std::uint64_t rejected() const { return rejected_; }
+
+ private:
+  double t0_ = 0.0, p0_ = 0.0, t1_ = -1e18, p1_ = 0.0;
+  std::uint64_t count_ = 0, rejected_ = 0;
 };
 
 }  // namespace die_cushion_ident

@@ -1,0 +1,55 @@
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+#include <sensor_msgs/FluidPressure.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "die_cushion_ident/core/pressure_feed_forward.h"
+#include "die_cushion_ident/core/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// The node's feed-forward (paper, Fig. 19): subscribes to the cell controller's `pressure_setpoint`
+/// (sensor_msgs/FluidPressure) and publishes on `~feed_forward` (ValveSignal, `voltage`) the command the
+/// identified model needs for it at the cushion's measured motion, for the controller to add to its PI
+/// output. Published once per grid sample while everything it needs is there; otherwise 0 V once (so an
+/// adder does not hold a stale value) and the reason in the `feed-forward` diagnostic.
+class FeedForwardPublisher {
+ public:
+  /// `valve_gain` [1/V]: until a sweep identifies the valve; NaN for none. `min_voltage`, `max_voltage`:
+  /// the requested safe command range.
+  FeedForwardPublisher(ros::NodeHandle nh, ros::NodeHandle pnh, double valve_gain, double max_age,
+                       double min_voltage, double max_voltage);
+
+  /// Called by the node (under its lock) for each grid sample with the current model and estimate;
+  /// `valve` is the identified valve model, or null.
+  void update(const GridSample& g, const HydraulicModel& model, const ParameterVector& physical,
+              bool model_ready, const ServoValveParameters* valve);
+  /// The model was rebuilt (effects changed): the next update starts afresh.
+  void modelChanged();
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const;
+
+ private:
+  void onSetpoint(const sensor_msgs::FluidPressure::ConstPtr& msg);
+  void publish(double stamp, double voltage);
+
+  ros::Subscriber sub_;
+  ros::Publisher pub_;
+  double configured_gain_, max_age_, limit_;
+  mutable std::mutex mutex_;  // the set-point arrives in its own callback
+  PressureReference reference_;
+  std::unique_ptr<PressureFeedForward> feed_forward_;
+  const HydraulicModel* model_ = nullptr;
+  ServoValveParameters valve_used_;
+  bool valve_identified_ = false;
+  bool withdrawn_ = true;  // the last message sent was 0 V (or none)
+  std::string blocker_ = "no pressure_setpoint received yet";
+  double last_voltage_ = 0.0;
+  std::uint64_t published_ = 0;
+};
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,80 @@
+#!/usr/bin/python3
+"""The node's live feed-forward against the simulator on sim time: once the model is identified, a
+pressure_setpoint stream gives ~feed_forward commands, finite and inside the requested +-4 V; NaN
+set-points are refused and counted; when the set-point falls silent the command is withdrawn (0 V) and the
+feed-forward diagnostic says it is stale."""
+import math
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from sensor_msgs.msg import FluidPressure
+
+from die_cushion_ident.msg import ParameterEstimate, ValveSignal
+from rostest_helpers import Latest, wait_for, wait_for_clock
+
+NS = "/die_cushion/ident/"
+
+
+class FeedForwardLive(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_feed_forward_live")
+        cls.lock = threading.Lock()
+        cls.commands = []
+        cls.diagnostic = None
+        rospy.Subscriber(NS + "feed_forward", ValveSignal, cls._on_command)
+        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
+        cls.estimate = Latest(NS + "estimate", ParameterEstimate)
+        cls.setpoint = rospy.Publisher("/die_cushion/pressure_setpoint", FluidPressure, queue_size=100)
+        cls.value = 100e5  # what the stream sends; None: silent
+
+    @classmethod
+    def _on_command(cls, msg):
+        with cls.lock:
+            cls.commands.append(msg.voltage)
+
+    @classmethod
+    def _on_diagnostics(cls, msg):
+        with cls.lock:
+            for s in msg.status:
+                if s.name.endswith("feed-forward"):
+                    cls.diagnostic = s
+
+    def stream(self, stop):
+        while not stop.is_set() and not rospy.is_shutdown():
+            if self.value is not None:
+                self.setpoint.publish(FluidPressure(header=rospy.Header(stamp=rospy.Time.now()),
+                                                    fluid_pressure=self.value))
+            time.sleep(0.005)
+
+    def test_commands_inside_the_range_nan_refused_silence_withdraws(self):
+        wait_for_clock()
+        wait_for(lambda: self.estimate.get() is not None and self.estimate.get().updates > 300, 60.0,
+                 "the estimator to identify the model")
+        stop = threading.Event()
+        threading.Thread(target=self.stream, args=(stop,), daemon=True).start()
+        try:
+            wait_for(lambda: len(self.commands) > 200, 20.0, "feed-forward commands")
+            with self.lock:
+                commands = list(self.commands)
+            self.assertTrue(all(math.isfinite(u) and abs(u) <= 4.0 + 1e-9 for u in commands), commands[:20])
+            self.assertTrue(any(abs(u) > 1e-6 for u in commands), "some command is not zero")
+
+            self.value = float("nan")  # a broken set-point: refused, then the good one is stale
+            wait_for(lambda: self.diagnostic is not None and self.diagnostic.level == DiagnosticStatus.WARN
+                     and "stale" in self.diagnostic.message, 10.0, "a WARN that the set-point is stale")
+            refused = {v.key: v.value for v in self.diagnostic.values}["set-points refused (NaN or stamp not advancing)"]
+            self.assertGreater(int(refused), 0)
+            with self.lock:
+                self.assertEqual(self.commands[-1], 0.0, "the command is withdrawn")
+                self.assertTrue(all(math.isfinite(u) and abs(u) <= 4.0 + 1e-9 for u in self.commands))
+        finally:
+            stop.set()
+
+
+if __name__ == "__main__":
+    rostest.rosrun("die_cushion_ident", "feed_forward_live", FeedForwardLive)
