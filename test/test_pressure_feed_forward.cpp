@@ -16,24 +16,9 @@
 namespace die_cushion_ident {
 namespace {
 
-// Pressure tracking error rms [Pa] during drawing over `cycles` press cycles, PI without the controller's
-// nominal velocity feed-forward, plus `feed_forward` when given.
-double drawingTrackingError(SimulatorConfig plant, std::shared_ptr<const PressureFeedForward> feed_forward,
-                            bool nominal_velocity_feed_forward = false, int cycles = 3) {
-  plant.controller.velocity_feed_forward = nominal_velocity_feed_forward;
-  DieCushionSimulator simulator(plant);
-  simulator.setFeedForward(std::move(feed_forward));
-  const double end = cycles * simulator.program().cycleDuration();
-  double sum = 0.0;
-  long n = 0;
-  while (simulator.state().t < end) {
-    simulator.step(nullptr);
-    const auto& s = simulator.state();
-    if (s.phase != StrokePhase::kDrawing) continue;
-    sum += (s.p - s.pressure_setpoint) * (s.p - s.pressure_setpoint);
-    ++n;
-  }
-  return n > 0 ? std::sqrt(sum / n) : 0.0;
+double drawingTrackingError(const SimulatorConfig& plant, std::shared_ptr<const PressureFeedForward> feed_forward,
+                            bool nominal_velocity_feed_forward = false) {
+  return drawingPressureErrorRms(plant, std::move(feed_forward), nominal_velocity_feed_forward, 3);
 }
 
 TEST(PressureFeedForward, TheIdentifiedModelTracksTheDrawingPressureThreeTimesBetterThanPiAlone) {

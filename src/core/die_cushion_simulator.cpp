@@ -198,4 +198,22 @@ void DieCushionSimulator::sampleSensors(std::vector<SimulatedMeasurement>* out) 
   }
 }
 
+double drawingPressureErrorRms(SimulatorConfig plant, std::shared_ptr<const PressureFeedForward> feed_forward,
+                               bool nominal_velocity_feed_forward, int cycles) {
+  plant.controller.velocity_feed_forward = nominal_velocity_feed_forward;
+  DieCushionSimulator simulator(plant);
+  simulator.setFeedForward(std::move(feed_forward));
+  const double end = cycles * simulator.program().cycleDuration();
+  double sum = 0.0;
+  long n = 0;
+  while (simulator.state().t < end) {
+    simulator.step(nullptr);
+    const auto& s = simulator.state();
+    if (s.phase != StrokePhase::kDrawing) continue;
+    sum += (s.p - s.pressure_setpoint) * (s.p - s.pressure_setpoint);
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum / n) : 0.0;
+}
+
 }  // namespace die_cushion_ident

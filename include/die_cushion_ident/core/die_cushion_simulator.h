@@ -120,4 +120,10 @@ class DieCushionSimulator {
   std::int64_t sample_index_[kInputStreamCount] = {0, 0, 0};
 };
 
+/// The pressure tracking error rms [Pa] during drawing over `cycles` press cycles of `plant` under its PI
+/// controller, with the controller's nominal velocity feed-forward on or off and `feed_forward` (a model's,
+/// may be null) added: the paper's Fig. 19 comparison.
+double drawingPressureErrorRms(SimulatorConfig plant, std::shared_ptr<const PressureFeedForward> feed_forward,
+                               bool nominal_velocity_feed_forward, int cycles);
+
 }  // namespace die_cushion_ident
