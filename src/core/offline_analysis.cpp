@@ -234,6 +234,20 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     }
   }
 
+  tell("looking for valve command steps at rest");
+  r.step_responses = findStepResponses(grid_);
+  if (!r.step_responses.empty()) {
+    const StepResponse& step = r.step_responses.front();
+    if (config_.resampler.sample_period > step.recommendedMaxSamplingTime()) {
+      char text[300];
+      std::snprintf(text, sizeof(text),
+                    "the sampling time (sample_period %.4g s) exceeds a tenth of the pressure's t63 (%.4g s "
+                    "from the step test at %.3f s): the identification cannot resolve the pressure build-up; "
+                    "set sample_period to at most %.4g s",
+                    config_.resampler.sample_period, step.t63, step.start, step.recommendedMaxSamplingTime());
+      r.warnings.push_back(text);
+    }
+  }
   valve_filter_.flush(&valve_);
   if (!valve_.empty()) {
     tell("looking for valve sine sweeps");

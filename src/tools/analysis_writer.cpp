@@ -209,6 +209,19 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+  if (!r.step_responses.empty()) {
+    // The first step test of the recording (the contract's single entry); the others in step_responses.
+    const StepResponse& s = r.step_responses.front();
+    out << YAML::Key << "step_response" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "t63" << YAML::Value << s.t63;
+    out << YAML::Key << "final_pressure" << YAML::Value << s.final_pressure;
+    out << YAML::Key << "step_voltage" << YAML::Value << s.step_voltage;
+    out << YAML::Key << "recommended_max_sampling_time" << YAML::Value << s.recommendedMaxSamplingTime();
+    out << YAML::Key << "initial_pressure" << YAML::Value << s.initial_pressure;
+    out << YAML::Key << "start" << YAML::Value << YAML::Precision(16) << s.start;
+    out << YAML::Key << "steps_found" << YAML::Value << r.step_responses.size();
+    out << YAML::EndMap;
+  }
   out << YAML::Key << "adequacy" << YAML::Value << YAML::BeginMap;
   // Held-out errors exist only where the ranking could judge on held-out strokes.
   const bool judged = r.model.updates > 0 && r.strokes.cycles >= EffectRankingOptions().min_held_out_cycles;

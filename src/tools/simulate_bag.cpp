@@ -22,11 +22,12 @@ namespace {
 
 const char* kUsage =
     "usage: simulate_bag OUT.bag [--cycles N] [--hours H] [--plant-effects a,b] [--custom-effect NAME=EXPR]\n"
-    "                    [--set NAME=VALUE]... [--seed S] [--sweep] [--epoch SECONDS]\n"
+    "                    [--set NAME=VALUE]... [--seed S] [--sweep] [--step-test VOLTAGE] [--epoch SECONDS]\n"
     "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name N]\n"
     "                    [--rates P,X,V] [--stamp-offsets P,X,V] [--continuous-command] [--start-offset S]\n"
     "  Press cycles of the simulated die cushion (2.62 s each) on /die_cushion/{pressure,position,valve};\n"
-    "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest.\n"
+    "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest;\n"
+    "  --step-test V then a valve command step of V volts at rest (held 1.5 s), for the pressure's t63.\n"
     "  Sensor configurations a press may have:\n"
     "    --no-velocity         JointState with position only (a linear encoder)\n"
     "    --no-spool            spool position not measured (NaN)\n"
@@ -119,6 +120,7 @@ int main(int argc, char** argv) {
   std::string out;
   double cycles = 6, hours = 0.0, epoch = 1.7e9, start_offset = 0.0;
   bool sweep = false, continuous_command = false;
+  double step_test = 0.0;
   SimulatorConfig plant;
   Recording recording;
   for (int i = 1; i < argc; ++i) {
@@ -151,6 +153,11 @@ int main(int argc, char** argv) {
         plant.seed = std::stoull(value());
       } else if (a == "--sweep") {
         sweep = true;
+      } else if (a == "--step-test") {
+        step_test = std::stod(value());
+        if (!std::isfinite(step_test) || step_test == 0.0 || std::abs(step_test) > 10.0) {
+          throw std::invalid_argument("--step-test needs a voltage step in [-10, 10] V, not 0");
+        }
       } else if (a == "--no-spool") {
         plant.sensors.measure_spool = false;
       } else if (a == "--no-velocity") {
@@ -207,6 +214,7 @@ int main(int argc, char** argv) {
       if (press.state().t < start_offset) continue;  // not recorded yet: the recording starts mid-stroke
       for (const auto& m : messages) recorder.write(m, -start_offset);
     }
+    double next_block = press.state().t - start_offset + 2.0;  // [s] where an appended test starts
     if (sweep) {
       // The same cushion standing at rest two seconds later, swept as ValveSweep sweeps it live.
       SimulatorConfig at_rest = plant;
@@ -264,6 +272,29 @@ int main(int argc, char** argv) {
         cushion.step(&messages);
         for (const auto& m : messages) recorder.write(m, offset);
       }
+      next_block = offset + cushion.state().t + 2.0;
+    }
+    if (step_test != 0.0) {
+      // The cushion at rest under its controller, then the command held at its last value for 0.3 s (as
+      // ~start_step_test holds the offset), stepped by step_test for 1.5 s, and back to the controller.
+      SimulatorConfig at_rest = plant;
+      at_rest.cycle.rest_time = 1e9;
+      DieCushionSimulator cushion(at_rest);
+      const auto run = [&](double until) {
+        while (cushion.state().t < until - 1e-12) {
+          messages.clear();
+          cushion.step(&messages);
+          for (const auto& m : messages) recorder.write(m, next_block);
+        }
+      };
+      run(0.7);
+      const double offset = cushion.state().u;
+      cushion.setValveCommandOverride(offset);
+      run(1.0);
+      cushion.setValveCommandOverride(offset + step_test);
+      run(2.5);
+      cushion.setValveCommandOverride(std::nullopt);
+      run(3.0);
     }
   } catch (const std::exception& e) {
     std::cerr << "simulate_bag: " << e.what() << "\n";

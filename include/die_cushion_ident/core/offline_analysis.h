@@ -11,6 +11,7 @@
 #include "die_cushion_ident/core/identification_pipeline.h"
 #include "die_cushion_ident/core/model_assessment.h"
 #include "die_cushion_ident/core/recorded_sweep.h"
+#include "die_cushion_ident/core/step_response.h"
 #include "die_cushion_ident/core/topic_delay_estimator.h"
 
 namespace die_cushion_ident {
@@ -50,6 +51,7 @@ struct OfflineResult {
   EffectRankingResult ranking;
   EstimateSeries estimates;
   std::optional<RecordedSweep> valve;  ///< present when the recording holds a sine sweep
+  std::vector<StepResponse> step_responses;  ///< valve command steps at rest found in the recording
   std::array<StreamHealth, kInputStreamCount> health;
   std::uint64_t restarts = 0;
   /// [s] the clock offsets subtracted from each topic's stamps, and where they came from.
