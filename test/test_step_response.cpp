@@ -10,6 +10,7 @@
 
 #include "die_cushion_ident/core/offline_analysis.h"
 #include "die_cushion_ident/core/step_response.h"
+#include "die_cushion_ident/core/valve_step_test.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {
@@ -113,6 +114,66 @@ TEST(StepResponse, PressCyclesAndSmallCommandChangesAreNoStepTest) {
   EXPECT_TRUE(findStepResponses(grid).empty()) << "the controller's commands during strokes are no step test";
   EXPECT_TRUE(findStepResponses(recordStep(55, 0.05).grid).empty()) << "below min_step";
   EXPECT_TRUE(findStepResponses(recordStep(55, -0.5, 0.1).grid).empty()) << "held too briefly";
+}
+
+// ~start_step_test's rules: refused while moving, without a fresh pressure, above the pressure bound or
+// with a command outside the limits; aborted when the cushion moves or the pressure passes
+// step_max_pressure; the command returns to the offset however the test ends.
+TEST(ValveStepTest, IsRefusedAndAbortedWhereUnsafeAndAlwaysEndsAtTheOffset) {
+  SweepLimits limits;
+  limits.max_voltage = 4.0;
+  limits.min_voltage = -4.0;
+  PlantCondition rest;
+  rest.pressure = 20e5;
+  rest.velocity = 0.0;
+  rest.pressure_age = 0.001;
+  rest.spool_age = 0.001;
+  StepTestRequest request;
+  request.offset = 0.2;
+  request.step = -0.5;
+  {
+    ValveStepTest test(limits);
+    PlantCondition moving = rest;
+    moving.velocity = 0.1;
+    EXPECT_NE(test.start(request, 0.0, moving).find("moving"), std::string::npos);
+    PlantCondition stale = rest;
+    stale.pressure_age = 1.0;
+    EXPECT_NE(test.start(request, 0.0, stale).find("stale"), std::string::npos);
+    PlantCondition high = rest;
+    high.pressure = 90e5;
+    EXPECT_NE(test.start(request, 0.0, high).find("sweep_max_pressure"), std::string::npos);
+    StepTestRequest big = request;
+    big.step = -2.0;
+    EXPECT_NE(test.start(big, 0.0, rest).find("sweep_max_amplitude"), std::string::npos);
+    StepTestRequest outside = request;
+    outside.offset = 3.8;
+    outside.step = 0.5;
+    EXPECT_NE(test.start(outside, 0.0, rest).find("would leave"), std::string::npos);
+    StepTestRequest nan = request;
+    nan.offset = std::nan("");
+    EXPECT_FALSE(test.start(nan, 0.0, rest).empty());
+    EXPECT_EQ(test.state(), ValveStepTest::State::kIdle);
+  }
+  {
+    ValveStepTest test(limits);
+    ASSERT_EQ(test.start(request, 10.0, rest), "");
+    EXPECT_DOUBLE_EQ(*test.command(10.1), 0.2) << "the offset held before the step";
+    EXPECT_DOUBLE_EQ(*test.command(10.5), -0.3) << "offset + step";
+    EXPECT_DOUBLE_EQ(*test.command(11.9), 0.2) << "the offset again at the end";
+    EXPECT_EQ(test.state(), ValveStepTest::State::kFinished);
+    EXPECT_FALSE(test.command(12.0).has_value());
+  }
+  {
+    ValveStepTest test(limits);
+    ASSERT_EQ(test.start(request, 0.0, rest), "");
+    EXPECT_DOUBLE_EQ(*test.command(0.5), -0.3);
+    PlantCondition over = rest;
+    over.pressure = 260e5;  // beyond step_max_pressure
+    test.supervise(0.6, over);
+    EXPECT_EQ(test.state(), ValveStepTest::State::kAborted);
+    EXPECT_NE(test.abortReason().find("step_max_pressure"), std::string::npos);
+    EXPECT_DOUBLE_EQ(*test.command(0.61), 0.2) << "abort restores the offset";
+  }
 }
 
 }  // namespace

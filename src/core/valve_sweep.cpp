@@ -30,6 +30,7 @@ const LimitKey kLimitKeys[] = {
     {"sweep_command_period", &SweepLimits::command_period},
     {"sweep_max_duration", &SweepLimits::max_duration},
     {"sweep_max_distortion", &SweepLimits::max_distortion},
+    {"step_max_pressure", &SweepLimits::step_max_pressure},
 };
 
 }  // namespace
@@ -72,6 +73,8 @@ std::vector<std::string> SweepLimits::validate() const {
   require("sweep_max_duration", max_duration, std::isfinite(max_duration) && max_duration > 0.0, "> 0 s");
   require("sweep_max_distortion", max_distortion, std::isfinite(max_distortion) && max_distortion > 0.0,
           "> 0");
+  require("step_max_pressure", step_max_pressure, std::isfinite(step_max_pressure) && step_max_pressure > 0.0,
+          "> 0 Pa");
   return problems;
 }
 

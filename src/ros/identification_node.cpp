@@ -50,7 +50,7 @@ std::string join(const std::vector<std::string>& items, const char* separator) {
 }
 
 std::string formatted(const char* pattern, double value) {
-  char buffer[64];
+  char buffer[256];
   std::snprintf(buffer, sizeof(buffer), pattern, value);
   return buffer;
 }
@@ -63,6 +63,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + join(problems, "\n  "));
   sweep_ = ValveSweep(limits_);
   sweep_.setCommandHold(config_.valve_command_hold);
+  step_test_ = ValveStepTest(limits_);
   joints_ = JointSelector(settings_.joint_name);
   feed_forward_ = std::make_unique<FeedForwardPublisher>(nh_, pnh_, settings_.valve_gain,
                                                          settings_.feed_forward_max_age, limits_.min_voltage,
@@ -89,6 +90,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   abort_srv_ = pnh_.advertiseService("abort_sweep", &IdentificationNode::abortSweep, this);
   effects_srv_ = pnh_.advertiseService("set_effects", &IdentificationNode::setEffects, this);
   reset_srv_ = pnh_.advertiseService("reset", &IdentificationNode::reset, this);
+  step_srv_ = pnh_.advertiseService("start_step_test", &IdentificationNode::startStepTest, this);
 
   updater_.setHardwareID("die_cushion");
   for (InputStream stream : {InputStream::kPressure, InputStream::kPosition, InputStream::kValve}) {
@@ -100,6 +102,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   updater_.add("valve model", this, &IdentificationNode::diagnoseValve);
   updater_.add("model adequacy", this, &IdentificationNode::diagnoseAdequacy);
   updater_.add("input timing", this, &IdentificationNode::diagnoseTiming);
+  updater_.add("step test", this, &IdentificationNode::diagnoseStepTest);
   updater_.add("feed-forward", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { feed_forward_->diagnose(s); });
   diagnostic_timer_ =
       nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) { updater_.update(); });
@@ -113,6 +116,10 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
 
 IdentificationNode::~IdentificationNode() {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (step_test_.running()) {
+    step_test_.abort("shutdown");
+    if (const auto u = step_test_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
+  }
   if (!sweep_.running()) return;
   sweep_.abort("shutdown");
   if (const auto u = sweep_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
@@ -216,6 +223,7 @@ void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdenti
     last_ranking_time_ = g.t;
     rankEffects();
   }
+  analyzeStepTest(g.t);
   phase_ = classifier_.classify(g);
   modelled_pressure_ = free_run_->step(g, identifier.physicalParameters());
   // What keeps the comparison from running, for the adequacy diagnostic (instead of waiting in silence).
@@ -334,6 +342,87 @@ void IdentificationNode::rankEffects() {
   ranking_pub_.publish(msg);
 }
 
+// ---- step test (paper, section 5.2) ----
+
+bool IdentificationNode::startStepTest(StartStepTest::Request& req, StartStepTest::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  StepTestRequest request;
+  request.offset = req.offset;
+  request.step = req.step;
+  request.duration = req.duration;
+  request.settle = req.settle;
+  const double now = ros::Time::now().toSec();
+  const std::string refusal = sweep_.running() ? std::string("a sweep is running")
+                                               : step_test_.start(request, now, plantCondition(now));
+  res.success = refusal.empty();
+  res.message = res.success ? formatted("step test started: %g V", step_test_.request().step) +
+                                  formatted(" from %g V", step_test_.request().offset)
+                            : "step test refused: " + refusal;
+  if (!res.success) {
+    ROS_WARN("die_cushion_ident: %s", res.message.c_str());
+    return true;
+  }
+  step_status_ = "running";
+  step_timer_ = nh_.createTimer(ros::Duration(0.5 * limits_.command_period), &IdentificationNode::onStepTimer, this);
+  ROS_INFO("die_cushion_ident: %s", res.message.c_str());
+  return true;
+}
+
+void IdentificationNode::onStepTimer(const ros::TimerEvent&) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double now = ros::Time::now().toSec();
+  step_test_.supervise(now, plantCondition(now));
+  if (const auto u = step_test_.command(now)) publishSweepCommand(*u);
+  if (step_test_.running()) return;
+  step_timer_.stop();
+  if (step_test_.state() == ValveStepTest::State::kAborted) {
+    step_status_ = "aborted: " + step_test_.abortReason();
+    ROS_WARN("die_cushion_ident: step test %s", step_status_.c_str());
+  } else {
+    step_status_ = "finished; timing the pressure's answer";
+    step_analysis_due_ = step_test_.stepTime() + step_test_.request().duration + 0.2;
+  }
+}
+
+void IdentificationNode::analyzeStepTest(double grid_time) {
+  if (!(grid_time >= step_analysis_due_)) return;
+  step_analysis_due_ = std::numeric_limits<double>::infinity();
+  const std::vector<GridSample> grid(window_.begin(), window_.end());
+  for (const StepResponse& r : findStepResponses(grid)) {
+    if (std::abs(r.start - step_test_.stepTime()) > 0.05) continue;
+    last_step_response_ = r;
+    step_status_ = formatted("t63 %.1f ms", r.t63 * 1e3);
+    ROS_INFO("die_cushion_ident: step test: %.1f -> %.1f bar, t63 %.1f ms (sample_period at most %.2f ms)",
+             r.initial_pressure * 1e-5, r.final_pressure * 1e-5, r.t63 * 1e3, r.recommendedMaxSamplingTime() * 1e3);
+    return;
+  }
+  step_status_ = "the pressure's answer could not be timed (it did not settle, changed less than 2 bar, or "
+                 "the cushion moved)";
+}
+
+void IdentificationNode::diagnoseStepTest(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  using diagnostic_msgs::DiagnosticStatus;
+  if (!last_step_response_) {
+    const bool failed = step_status_.rfind("aborted", 0) == 0 || step_status_.rfind("the pressure's", 0) == 0;
+    status.summary(failed ? DiagnosticStatus::WARN : DiagnosticStatus::OK, step_status_);
+    return;
+  }
+  const StepResponse& r = *last_step_response_;
+  const bool too_slow = config_.resampler.sample_period > r.recommendedMaxSamplingTime();
+  status.summary(too_slow ? DiagnosticStatus::WARN : DiagnosticStatus::OK,
+                 too_slow ? formatted("sample_period %.4g s exceeds 0.1 t63", config_.resampler.sample_period) +
+                                formatted(" = %.4g s: the identification cannot resolve the pressure build-up",
+                                          r.recommendedMaxSamplingTime())
+                          : step_status_);
+  status.add("t63 [s]", r.t63);
+  status.add("recommended max sampling time [s]", r.recommendedMaxSamplingTime());
+  status.add("step voltage [V]", r.step_voltage);
+  status.add("initial pressure [bar]", r.initial_pressure * 1e-5);
+  status.add("final pressure [bar]", r.final_pressure * 1e-5);
+  status.add("last test", step_status_);
+}
+
 // ---- valve sweep ----
 
 PlantCondition IdentificationNode::plantCondition(double now) const {
@@ -411,7 +500,8 @@ bool IdentificationNode::startSweep(StartSweep::Request& req, StartSweep::Respon
   if (req.settle_periods != 0.0) request.settle_periods = req.settle_periods;
   if (req.integration_periods != 0.0) request.integration_periods = req.integration_periods;
   const double now = ros::Time::now().toSec();
-  const std::string refusal = sweep_.start(request, now, plantCondition(now));
+  const std::string refusal = step_test_.running() ? std::string("a step test is running")
+                                                    : sweep_.start(request, now, plantCondition(now));
   res.success = refusal.empty();
   if (!res.success) {
     res.message = "sweep refused: " + refusal;
@@ -433,6 +523,12 @@ bool IdentificationNode::startSweep(StartSweep::Request& req, StartSweep::Respon
 
 bool IdentificationNode::abortSweep(AbortSweep::Request&, AbortSweep::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (step_test_.running()) {
+    step_test_.abort("aborted by request (~abort_sweep)");
+    res.success = true;
+    res.message = "step test aborted; the valve command returns to " + formatted("%g V", step_test_.request().offset);
+    return true;
+  }
   res.success = sweep_.running();
   if (!res.success) {
     res.message = "no sweep is running";

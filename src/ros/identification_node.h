@@ -16,6 +16,7 @@
 #include "die_cushion_ident/AbortSweep.h"
 #include "die_cushion_ident/Reset.h"
 #include "die_cushion_ident/SetEffects.h"
+#include "die_cushion_ident/StartStepTest.h"
 #include "die_cushion_ident/StartSweep.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/effect_ranking.h"
@@ -23,6 +24,8 @@
 #include "die_cushion_ident/core/identification_pipeline.h"
 #include "die_cushion_ident/core/stroke_phase_classifier.h"
 #include "die_cushion_ident/core/topic_delay_estimator.h"
+#include "die_cushion_ident/core/step_response.h"
+#include "die_cushion_ident/core/valve_step_test.h"
 #include "die_cushion_ident/core/valve_sweep.h"
 #include "die_cushion_ident/core/velocity_from_position.h"
 #include "feed_forward_publisher.h"
@@ -62,6 +65,11 @@ class IdentificationNode {
 
   bool startSweep(StartSweep::Request& request, StartSweep::Response& response);
   bool abortSweep(AbortSweep::Request& request, AbortSweep::Response& response);
+  bool startStepTest(StartStepTest::Request& request, StartStepTest::Response& response);
+  void onStepTimer(const ros::TimerEvent&);
+  /// Times the pressure's answer once the grid holds the whole step (findStepResponses on the window).
+  void analyzeStepTest(double grid_time);
+  void diagnoseStepTest(diagnostic_updater::DiagnosticStatusWrapper& status);
   bool setEffects(SetEffects::Request& request, SetEffects::Response& response);
   bool reset(Reset::Request& request, Reset::Response& response);
 
@@ -92,6 +100,11 @@ class IdentificationNode {
   ros::Timer sweep_timer_;
   bool sweep_commanding_ = false;  // the sweep timer runs (until the offset has been sent)
   ServoValveFit last_valve_fit_;
+  ValveStepTest step_test_{SweepLimits()};
+  ros::Timer step_timer_;
+  double step_analysis_due_ = std::numeric_limits<double>::infinity();  // grid time to time the answer
+  std::optional<StepResponse> last_step_response_;
+  std::string step_status_ = "no step test run (~start_step_test)";
   bool sweep_reported_ = false;  // the ended sweep's results have been published
   std::size_t published_points_ = 0;
 
@@ -127,7 +140,7 @@ class IdentificationNode {
   ros::Publisher estimate_pub_, comparison_pub_, response_pub_, valve_model_pub_, command_pub_, markers_pub_;
   std::string frame_id_ = "die_cushion";
   std::uint64_t steps_since_markers_ = 0;
-  ros::ServiceServer start_srv_, abort_srv_, effects_srv_, reset_srv_;
+  ros::ServiceServer start_srv_, abort_srv_, effects_srv_, reset_srv_, step_srv_;
   std::unique_ptr<FeedForwardPublisher> feed_forward_;
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostic_timer_;

@@ -39,6 +39,9 @@ struct SweepLimits {
   double command_period = 0.001;     ///< [s] valve command rate (paper: 1 ms)
   double max_duration = 300.0;       ///< [s] longest sweep accepted
   double max_distortion = 0.02;      ///< harmonic distortion that flags a point (spool-velocity saturation)
+  /// [Pa] a step test aborts above (a step that opens the supply edge raises the pressure towards the
+  /// supply: the sweep's bound applies to its start only)
+  double step_max_pressure = 250e5;
 
   /// Highest frequency accepted: a quarter of the command rate (at least 4 commands per period).
   double maxFrequency() const { return 0.25 / command_period; }
