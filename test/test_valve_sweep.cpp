@@ -218,7 +218,7 @@ TEST(SweepLimits, ValidationNamesTheKeyAndTheAllowedRange) {
   EXPECT_NE(problems[0].find("sweep_max_amplitude = -1 is invalid: allowed > 0 V"), std::string::npos);
   EXPECT_NE(problems[1].find("sweep_max_voltage"), std::string::npos);
   EXPECT_THROW(ValveSweep{limits}, std::invalid_argument);
-  EXPECT_EQ(sweepLimitKeys().size(), 9u);
+  EXPECT_EQ(sweepLimitKeys().size(), 10u);  // with step_max_pressure
 }
 
 }  // namespace

@@ -1,0 +1,209 @@
+// rosrun die_cushion_ident study_settings [--config FILE] [--from-summary SUMMARY] --out DIR
+//   [--seeds N] [--cycles N] [--jobs N]
+// The paper's filter-width and sampling-time study (§5.1, §5.2) on the simulator configured as the press:
+// its identified parameters, effects and measured pressure noise from an analyze_bag summary, or the
+// config's. Writes DIR/settings_study.csv, DIR/settings_{bias,std}_{derivative,integral}.svg (bias and
+// std in % against the moving-average width, a line per derivative width, as in the paper's figures) and
+// DIR/recommendation.txt.
+#include <sys/stat.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "analysis_config.h"
+#include "die_cushion_ident/core/settings_study.h"
+
+namespace die_cushion_ident {
+namespace {
+
+const char* kUsage =
+    "usage: study_settings [--config FILE] [--from-summary SUMMARY] --out DIR [--seeds N] [--cycles N] [--jobs N]\n"
+    "  The paper's study of the filter widths and the sampling time on the simulator configured as your press\n"
+    "  (an analyze_bag summary.yaml gives its parameters, effects and pressure noise; else the config's).\n";
+
+[[noreturn]] void fail(int code, const std::string& message) {
+  std::cerr << "study_settings: " << message << "\n";
+  std::exit(code);
+}
+
+struct Series {
+  std::string label;
+  std::vector<std::pair<double, double>> points;
+};
+
+// A plain SVG line chart: no plotting library needed on the press's PC.
+void writeChart(const std::string& path, const std::string& title, const std::string& x_label,
+                const std::string& y_label, const std::vector<Series>& series) {
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  for (const auto& s : series) {
+    for (const auto& [x, y] : s.points) {
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    }
+  }
+  if (!(x1 > x0)) x1 = x0 + 1.0;
+  if (!(y1 > y0)) y1 = y0 + 1.0;
+  y0 = std::min(y0, 0.0);
+  const double W = 520, H = 330, left = 70, right = 150, top = 40, bottom = 50;
+  const auto X = [&](double x) { return left + (x - x0) / (x1 - x0) * (W - left - right); };
+  const auto Y = [&](double y) { return H - bottom - (y - y0) / (y1 - y0) * (H - top - bottom); };
+  static const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
+  std::ofstream out(path);
+  out << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' "
+      << "font-size='11'>\n<text x='" << left << "' y='20' font-size='13'>" << title << "</text>\n";
+  out << "<line x1='" << left << "' y1='" << Y(0) << "' x2='" << W - right << "' y2='" << Y(0)
+      << "' stroke='#999'/>\n<line x1='" << left << "' y1='" << top << "' x2='" << left << "' y2='" << H - bottom
+      << "' stroke='black'/>\n";
+  for (int i = 0; i <= 4; ++i) {
+    const double y = y0 + (y1 - y0) * i / 4, x = x0 + (x1 - x0) * i / 4;
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.3g", y);
+    out << "<text x='" << left - 6 << "' y='" << Y(y) + 4 << "' text-anchor='end'>" << text << "</text>\n";
+    std::snprintf(text, sizeof(text), "%.3g", x);
+    out << "<text x='" << X(x) << "' y='" << H - bottom + 16 << "' text-anchor='middle'>" << text << "</text>\n";
+  }
+  out << "<text x='" << (left + W - right) / 2 << "' y='" << H - 10 << "' text-anchor='middle'>" << x_label
+      << "</text>\n<text x='14' y='" << (top + H - bottom) / 2 << "' transform='rotate(-90 14 " << (top + H - bottom) / 2
+      << ")' text-anchor='middle'>" << y_label << "</text>\n";
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const char* colour = colours[k % 6];
+    out << "<polyline fill='none' stroke='" << colour << "' stroke-width='2' points='";
+    for (const auto& [x, y] : series[k].points) out << X(x) << "," << Y(y) << " ";
+    out << "'/>\n<text x='" << W - right + 8 << "' y='" << top + 16 * k + 10 << "' fill='" << colour << "'>"
+        << series[k].label << "</text>\n";
+  }
+  out << "</svg>\n";
+}
+
+int run(int argc, char** argv) {
+  std::string config_path, summary_path, out;
+  SettingsStudyOptions options;
+  options.jobs = std::max(1u, std::thread::hardware_concurrency());
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) fail(2, a + " needs a value\n" + kUsage);
+      return argv[++i];
+    };
+    const auto count = [&](int lowest) {
+      const std::string v = value();
+      char* end = nullptr;
+      const long n = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || n < lowest || n > 1000) fail(2, a + " must be a whole number >= " + std::to_string(lowest));
+      return static_cast<int>(n);
+    };
+    if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
+      return 0;
+    } else if (a == "--config") {
+      config_path = value();
+    } else if (a == "--from-summary") {
+      summary_path = value();
+    } else if (a == "--out") {
+      out = value();
+    } else if (a == "--seeds") {
+      options.seeds = count(2);
+    } else if (a == "--cycles") {
+      options.cycles = count(1);
+    } else if (a == "--jobs") {
+      options.jobs = count(1);
+    } else {
+      fail(2, "unknown option " + a + "\n" + kUsage);
+    }
+  }
+  if (out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
+
+  IdentificationConfig base;
+  if (!config_path.empty()) {
+    InputTopics topics;
+    std::vector<std::string> keys;
+    const auto problems = loadAnalysisConfig(config_path, &base, &topics, &keys);
+    if (!problems.empty()) fail(2, "invalid configuration in " + config_path + ": " + problems.front());
+  }
+  SimulatorConfig plant;
+  plant.geometry = base.geometry;
+  plant.effects = base.effects;
+  plant.custom_effects = base.custom_effects;
+  for (const auto& [name, value] : base.initial_parameters) plant.parameters[name] = value;
+  if (!summary_path.empty()) {
+    try {
+      const YAML::Node summary = YAML::LoadFile(summary_path);
+      plant.effects.clear();
+      for (const auto& e : summary["model"]["effects"]) plant.effects.push_back(e.as<std::string>());
+      for (const auto& p : summary["model"]["parameters"]) {
+        plant.parameters[p["name"].as<std::string>()] = p["value"].as<double>();
+      }
+      if (summary["adequacy"] && summary["adequacy"]["noise_rms"]) {
+        plant.sensors.pressure_noise = summary["adequacy"]["noise_rms"].as<double>();
+      }
+    } catch (const std::exception& e) {
+      fail(3, "cannot use the summary '" + summary_path + "': " + e.what());
+    }
+    plant.custom_effects.clear();  // a summary's custom effects are named with their expressions in config
+  }
+  base.effects = plant.effects;
+  base.custom_effects = plant.custom_effects;
+  if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) fail(4, "cannot create output directory '" + out + "'");
+
+  std::cerr << "study_settings: the press simulated with pressure noise " << plant.sensors.pressure_noise * 1e-5
+            << " bar; " << options.seeds << " seeds x " << options.cycles << " cycles per setting on " << options.jobs
+            << " threads\n";
+  int last_percent = -1;
+  const auto points = runSettingsStudy(plant, base, options, [&](int done, int total) {
+    const int percent = 100 * done / total;
+    if (percent / 10 != last_percent / 10) std::cerr << "study_settings: " << percent << " % (" << done << " of " << total << " runs)\n";
+    last_percent = percent;
+  });
+
+  std::ofstream csv(out + "/settings_study.csv");
+  csv << "form,moving_average_width,derivative_width,sample_period,parameter,bias,std,runs\n";
+  for (const auto& p : points) {
+    csv << regressionFormName(p.form) << "," << p.moving_average_width << "," << p.derivative_width << ","
+        << p.sample_period << "," << p.parameter << "," << p.bias << "," << p.std << "," << p.runs << "\n";
+  }
+  csv.close();
+  if (!csv) fail(4, "cannot write " + out + "/settings_study.csv");
+  for (RegressionForm form : {RegressionForm::kDerivative, RegressionForm::kIntegral}) {
+    for (const bool bias : {true, false}) {
+      std::vector<Series> series;
+      for (const char* parameter : {"bulk_modulus", "dead_volume"}) {
+        std::map<int, Series> by_width;
+        for (const auto& p : points) {
+          if (p.form != form || p.parameter != parameter || p.sample_period != base.resampler.sample_period) continue;
+          Series& s = by_width[p.derivative_width];
+          s.label = std::string(parameter == std::string("bulk_modulus") ? "K'" : "V0") + ", d = " +
+                    std::to_string(p.derivative_width);
+          s.points.emplace_back(p.moving_average_width, 100.0 * (bias ? p.bias : p.std));
+        }
+        for (auto& [width, s] : by_width) series.push_back(s);
+      }
+      const std::string name = std::string("settings_") + (bias ? "bias_" : "std_") + regressionFormName(form) + ".svg";
+      writeChart(out + "/" + name,
+                 std::string(bias ? "bias" : "std") + " of the estimates, " + regressionFormName(form) + " form",
+                 "moving-average width b [samples]", bias ? "bias [%]" : "std [%]", series);
+    }
+  }
+  const std::string recommendation = recommendSettings(points, base);
+  std::ofstream(out + "/recommendation.txt") << recommendation << "\n";
+  std::cout << recommendation << "\nresults in " << out << "\n";
+  return 0;
+}
+
+}  // namespace
+}  // namespace die_cushion_ident
+
+int main(int argc, char** argv) {
+  try {
+    return die_cushion_ident::run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "study_settings: " << e.what() << "\n";
+    return 1;
+  }
+}
