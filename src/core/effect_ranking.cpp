@@ -10,17 +10,12 @@
 #include <utility>
 
 #include "die_cushion_ident/core/effect_library.h"
+#include "die_cushion_ident/core/formatted.h"
 #include "die_cushion_ident/core/held_out_test.h"
 
 namespace die_cushion_ident {
 
 namespace {
-
-std::string format(const char* pattern, double a) {
-  char buffer[96];
-  std::snprintf(buffer, sizeof(buffer), pattern, a);
-  return buffer;
-}
 
 // Pressure sensor noise from the grid: second differences of a smooth signal are noise (MAD, robust to
 // the fast transients at impact and release).
@@ -57,10 +52,10 @@ void correctForMultipleTests(std::vector<Judged>& round, const EffectRankingOpti
     CandidateEffect& c = round[i].candidate;
     if (c.verdict != "missing" || rejected[i]) continue;
     c.verdict = "inconclusive";
-    c.explanation = round[i].physics + "; " + format("%.0f %%", 100.0 * c.error_reduction) +
+    c.explanation = round[i].physics + "; " + formatted("%.0f %%", 100.0 * c.error_reduction) +
                     " less held-out error, but not significant once corrected for the " +
                     std::to_string(round.size()) + " extensions tried (Holm; one-sided p = " +
-                    format("%.2g", c.p_value) + ")";
+                    formatted("%.2g", c.p_value) + ")";
   }
 }
 
@@ -86,7 +81,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
       if (p.name != info.name) continue;
       candidate.parameters.push_back(p);
       if (!(std::isfinite(p.value) && p.value >= info.lower_bound && p.value <= info.upper_bound)) {
-        implausible += "; the fit puts " + info.name + " at " + format("%.3g", p.value) + " " + info.unit +
+        implausible += "; the fit puts " + info.name + " at " + formatted("%.3g", p.value) + " " + info.unit +
                        ", outside its physical range: the data do not show this effect";
       }
     }
@@ -107,7 +102,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   candidate.t_statistic = test.t_statistic;
   candidate.p_value = test.p_value;
   candidate.held_out_cycles = test.cycles;
-  const std::string reduction = format("%.0f %%", 100.0 * candidate.error_reduction);
+  const std::string reduction = formatted("%.0f %%", 100.0 * candidate.error_reduction);
   if (!implausible.empty()) {
     candidate.verdict = "not_needed";
     candidate.explanation = physics + implausible;
@@ -125,7 +120,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
     candidate.verdict = "inconclusive";
     candidate.explanation = physics + "; " + reduction +
                             " less held-out error, but not consistently over the cycles (t = " +
-                            format("%.2f", candidate.t_statistic) + ")";
+                            formatted("%.2f", candidate.t_statistic) + ")";
   }
   return judged;
 }
@@ -284,8 +279,8 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
 
   ranking.residual_unexplained = enough && ranking.best_error_rms > floor;
   const std::string held_out_path = [&] {
-    std::string text = format("%.1f", ranking.base_error_rms * 1e-5);
-    for (const auto& step : ranking.steps) text += " -> " + format("%.1f", step.held_out_error_rms * 1e-5);
+    std::string text = formatted("%.1f", ranking.base_error_rms * 1e-5);
+    for (const auto& step : ranking.steps) text += " -> " + formatted("%.1f", step.held_out_error_rms * 1e-5);
     return text + " bar rms on held-out cycles";
   }();
   if (!enough) {
@@ -302,8 +297,8 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
     ranking.conclusion =
         std::string(ranking.steps.empty() ? "The" : "Adding " + quotedList(ranking.steps) + " helps (" +
                                                         held_out_path + "), but the") +
-        " remaining error (" + format("%.1f bar rms", ranking.best_error_rms * 1e-5) +
-        " on held-out cycles, noise " + format("%.2f bar", ranking.noise_rms * 1e-5) +
+        " remaining error (" + formatted("%.1f bar rms", ranking.best_error_rms * 1e-5) +
+        " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
         ") is structured and not explained by the library's effects: describe it with a custom effect "
         "(--custom-effect NAME=EXPR) where the model fails.";
   } else {

@@ -10,18 +10,13 @@
 #include <set>
 #include <stdexcept>
 
+#include "die_cushion_ident/core/formatted.h"
 #include "die_cushion_ident/core/free_run_pressure.h"
 #include "die_cushion_ident/core/hydraulic_model.h"
 
 namespace die_cushion_ident {
 
 namespace {
-
-std::string percent(double fraction) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.0f %%", 100.0 * fraction);
-  return text;
-}
 
 bool usable(const GridSample& s, const IdentificationConfig& config) {
   return s.complete && !s.discontinuity && std::isfinite(s.p) && std::isfinite(s.x) && std::isfinite(s.v) &&
@@ -380,16 +375,16 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
     proposal.explanation = physics + "; only " + std::to_string(test.cycles) + " held-out cycles";
   } else if (test.error_reduction >= ranking.missing_reduction && test.significant) {
     proposal.verdict = "missing";
-    proposal.explanation = physics + "; it removes " + percent(test.error_reduction) +
+    proposal.explanation = physics + "; it removes " + formatted("%.0f %%", 100.0 * test.error_reduction) +
                            " of the free-run error on cycles it was not fitted to";
   } else if (test.error_reduction < ranking.not_needed_reduction) {
     proposal.verdict = "not_needed";
-    proposal.explanation = physics + "; it changes the held-out error by only " + percent(test.error_reduction);
+    proposal.explanation = physics + "; it changes the held-out error by only " + formatted("%.0f %%", 100.0 * test.error_reduction);
   } else {
     proposal.verdict = "inconclusive";
     char t[32];
     std::snprintf(t, sizeof(t), "%.2f", test.t_statistic);
-    proposal.explanation = physics + "; " + percent(test.error_reduction) +
+    proposal.explanation = physics + "; " + formatted("%.0f %%", 100.0 * test.error_reduction) +
                            " less held-out error, but not consistently over the cycles (t = " + t + ")";
   }
   screen.binned(term, &proposal.bin_signal, &proposal.bin_residual, &proposal.bin_term);
@@ -445,7 +440,7 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
     FormulaProposal& p = proven[i].first;
     if (p.verdict != "missing" || rejected[i]) continue;
     p.verdict = "inconclusive";
-    p.explanation = p.explanation.substr(0, p.explanation.find(';')) + "; " + percent(p.error_reduction) +
+    p.explanation = p.explanation.substr(0, p.explanation.find(';')) + "; " + formatted("%.0f %%", 100.0 * p.error_reduction) +
                     " less held-out error, but not significant once corrected for the " +
                     std::to_string(proven.size()) + " formulas tried (Holm)";
   }

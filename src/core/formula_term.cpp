@@ -5,22 +5,18 @@
 #include <stdexcept>
 #include <string>
 
+#include "die_cushion_ident/core/formatted.h"
+
 namespace die_cushion_ident {
 
 namespace {
-std::string printf1(const char* pattern, double a) {
-  char text[64];
-  std::snprintf(text, sizeof(text), pattern, a);
-  return text;
-}
-
 // The breakpoint in the unit a press engineer reads: bar, mm, mm/s, spool fraction.
 std::string readable(char signal, double value) {
   switch (signal) {
-    case 'p': return printf1("%.1f bar", value * 1e-5);
-    case 'x': return printf1("%.1f mm", value * 1e3);
-    case 'v': return printf1("%.0f mm/s", value * 1e3);
-    default: return printf1("%.3g", value);
+    case 'p': return formatted("%.1f bar", value * 1e-5);
+    case 'x': return formatted("%.1f mm", value * 1e3);
+    case 'v': return formatted("%.0f mm/s", value * 1e3);
+    default: return formatted("%.3g", value);
   }
 }
 

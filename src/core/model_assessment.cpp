@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 
+#include "die_cushion_ident/core/formatted.h"
 #include "die_cushion_ident/core/free_run_pressure.h"
 #include "die_cushion_ident/core/stroke_phase_classifier.h"
 
@@ -26,12 +27,6 @@ struct Accumulator {
     sum_squares += e * e;
   }
 };
-
-std::string format(const char* pattern, double a, double b = 0.0) {
-  char buffer[128];
-  std::snprintf(buffer, sizeof(buffer), pattern, a, b);
-  return buffer;
-}
 
 // The free-run error in bins of one signal with fixed edges, accumulated sample by sample; labels in the
 // unit users read (bar, m/s, opening).
@@ -55,7 +50,7 @@ class RegionBins {
       r.dimension = dimension_;
       r.low = edges_[b];
       r.high = edges_[b + 1];
-      r.label = format("%g", r.low * scale_) + "..." + format("%g", r.high * scale_) +
+      r.label = formatted("%g", r.low * scale_) + "..." + formatted("%g", r.high * scale_) +
                 (unit_[0] != '\0' ? std::string(" ") + unit_ : std::string());
       r.samples = acc_[b].n;
       r.rms = std::sqrt(acc_[b].sum_squares / acc_[b].n);
@@ -196,10 +191,10 @@ ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSeg
     const bool biased = std::abs(r->mean_residual) > 0.5 * r->rms;
     std::string sentence = biased ? std::string("the model ") + (r->mean_residual > 0 ? "under" : "over") +
                                         "-predicts the pressure " + where(*r) + " by " +
-                                        format("%.1f bar", std::abs(r->mean_residual) * 1e-5) +
-                                        " on average" + " (" + format("%.1f bar rms", r->rms * 1e-5) + ")"
+                                        formatted("%.1f bar", std::abs(r->mean_residual) * 1e-5) +
+                                        " on average" + " (" + formatted("%.1f bar rms", r->rms * 1e-5) + ")"
                                   : "the model misses the pressure " + where(*r) + " by " +
-                                        format("%.1f bar rms", r->rms * 1e-5) + ", in both directions";
+                                        formatted("%.1f bar rms", r->rms * 1e-5) + ", in both directions";
     a.worst_regions.push_back(sentence);
   }
   return a;

@@ -3,15 +3,9 @@
 #include <cmath>
 #include <cstdio>
 
-namespace die_cushion_ident {
+#include "die_cushion_ident/core/formatted.h"
 
-namespace {
-std::string format(const char* pattern, double a, double b = 0.0) {
-  char text[200];
-  std::snprintf(text, sizeof(text), pattern, a, b);
-  return text;
-}
-}  // namespace
+namespace die_cushion_ident {
 
 std::string ValveStepTest::start(StepTestRequest request, double now, const PlantCondition& plant) {
   if (running()) return "a step test is already running; abort it first";
@@ -24,18 +18,18 @@ std::string ValveStepTest::start(StepTestRequest request, double now, const Plan
     return "the request holds a value that is not finite";
   }
   if (std::abs(request.step) > limits_.max_amplitude) {
-    return format("step %.3g V exceeds sweep_max_amplitude %.3g V", request.step, limits_.max_amplitude);
+    return formatted("step %.3g V exceeds sweep_max_amplitude %.3g V", request.step, limits_.max_amplitude);
   }
   for (double u : {request.offset, request.offset + request.step}) {
     if (u < limits_.min_voltage || u > limits_.max_voltage) {
-      return format("the command %.3g V would leave [sweep_min_voltage, sweep_max_voltage] = [%.3g, ", u,
+      return formatted("the command %.3g V would leave [sweep_min_voltage, sweep_max_voltage] = [%.3g, ", u,
                     limits_.min_voltage) +
-             format("%.3g] V", limits_.max_voltage);
+             formatted("%.3g] V", limits_.max_voltage);
     }
   }
   if (!(request.duration > 0.0 && request.duration + request.settle <= limits_.max_duration) ||
       !(request.settle > 0.0)) {
-    return format("duration and settle must be > 0 s and together at most sweep_max_duration %.3g s",
+    return formatted("duration and settle must be > 0 s and together at most sweep_max_duration %.3g s",
                   limits_.max_duration);
   }
   if (!std::isfinite(now)) return "the clock is not valid";
@@ -43,12 +37,12 @@ std::string ValveStepTest::start(StepTestRequest request, double now, const Plan
     return "the chamber pressure is unknown or stale, so the pressure limit cannot be checked";
   }
   if (plant.pressure > limits_.max_pressure) {
-    return format("the chamber pressure %.1f bar is above %.1f bar (sweep_max_pressure)", plant.pressure * 1e-5,
+    return formatted("the chamber pressure %.1f bar is above %.1f bar (sweep_max_pressure)", plant.pressure * 1e-5,
                   limits_.max_pressure * 1e-5);
   }
   if (!std::isfinite(plant.velocity)) return "the cushion velocity is unknown, so rest cannot be confirmed";
   if (std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    return format("the cushion is moving (%.4f m/s; at rest below %g m/s): step tests run only at rest",
+    return formatted("the cushion is moving (%.4f m/s; at rest below %g m/s): step tests run only at rest",
                   plant.velocity, limits_.max_rest_velocity);
   }
   request_ = request;
@@ -66,10 +60,10 @@ void ValveStepTest::supervise(double now, const PlantCondition& plant) {
   if (!(plant.pressure_age <= limits_.signal_timeout) || !std::isfinite(plant.pressure)) {
     abort("pressure signal stale or not finite: the pressure limit cannot be checked");
   } else if (plant.pressure > limits_.step_max_pressure) {
-    abort(format("chamber pressure %.1f bar over step_max_pressure %.1f bar", plant.pressure * 1e-5,
+    abort(formatted("chamber pressure %.1f bar over step_max_pressure %.1f bar", plant.pressure * 1e-5,
                  limits_.step_max_pressure * 1e-5));
   } else if (std::isfinite(plant.velocity) && std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    abort(format("the cushion started moving (%.4f m/s)", plant.velocity));
+    abort(formatted("the cushion started moving (%.4f m/s)", plant.velocity));
   }
 }
 

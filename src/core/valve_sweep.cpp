@@ -5,15 +5,11 @@
 #include <cstdio>
 #include <string>
 
+#include "die_cushion_ident/core/formatted.h"
+
 namespace die_cushion_ident {
 
 namespace {
-
-std::string format(const char* pattern, double a, double b = 0.0, double c = 0.0) {
-  char buffer[256];
-  std::snprintf(buffer, sizeof(buffer), pattern, a, b, c);
-  return buffer;
-}
 
 struct LimitKey {
   const char* key;
@@ -57,7 +53,7 @@ std::vector<std::string> SweepLimits::validate() const {
   std::vector<std::string> problems;
   const auto require = [&](const char* key, double value, bool ok, const char* allowed) {
     if (!ok)
-      problems.push_back(std::string(key) + " = " + format("%g", value) + " is invalid: allowed " + allowed);
+      problems.push_back(std::string(key) + " = " + formatted("%g", value) + " is invalid: allowed " + allowed);
   };
   require("sweep_max_amplitude", max_amplitude, std::isfinite(max_amplitude) && max_amplitude > 0.0, "> 0 V");
   require("sweep_min_voltage", min_voltage, std::isfinite(min_voltage), "a finite voltage");
@@ -102,36 +98,36 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
   if (r.frequencies.empty()) return "no frequencies requested";
   if (r.frequencies.size() > 1000) return "more than 1000 frequencies requested";
   for (double f : r.frequencies) {
-    if (!std::isfinite(f) || f <= 0.0) return format("frequency %g Hz is invalid: allowed > 0 Hz", f);
+    if (!std::isfinite(f) || f <= 0.0) return formatted("frequency %g Hz is invalid: allowed > 0 Hz", f);
     if (f > limits.maxFrequency()) {
-      return format(
+      return formatted(
           "frequency %g Hz is above %g Hz, a quarter of the valve command rate (fewer than 4 commands per "
           "period; Nyquist is %g Hz)",
           f, limits.maxFrequency(), 0.5 / limits.command_period);
     }
   }
   if (!std::isfinite(r.amplitude) || r.amplitude <= 0.0)
-    return format("amplitude %g V is invalid: allowed > 0 V", r.amplitude);
+    return formatted("amplitude %g V is invalid: allowed > 0 V", r.amplitude);
   if (r.amplitude > limits.max_amplitude) {
-    return format("amplitude %g V is above the limit sweep_max_amplitude = %g V", r.amplitude,
+    return formatted("amplitude %g V is above the limit sweep_max_amplitude = %g V", r.amplitude,
                   limits.max_amplitude);
   }
   if (!std::isfinite(r.offset)) return "offset is not finite";
   if (r.offset - r.amplitude < limits.min_voltage || r.offset + r.amplitude > limits.max_voltage) {
-    return format("offset %g V +/- amplitude leaves the command range [%g, %g] V (sweep_min/max_voltage)",
+    return formatted("offset %g V +/- amplitude leaves the command range [%g, %g] V (sweep_min/max_voltage)",
                   r.offset, limits.min_voltage, limits.max_voltage);
   }
   if (!std::isfinite(r.settle_periods) || r.settle_periods < 0.0)
-    return format("settle_periods %g is invalid: allowed >= 0", r.settle_periods);
+    return formatted("settle_periods %g is invalid: allowed >= 0", r.settle_periods);
   if (!std::isfinite(r.settle_time) || r.settle_time < 0.0)
-    return format("settle_time %g s is invalid: allowed >= 0 s", r.settle_time);
+    return formatted("settle_time %g s is invalid: allowed >= 0 s", r.settle_time);
   if (!std::isfinite(r.integration_periods) || r.integration_periods < 1.0 || r.integration_periods > 1e5)
-    return format("integration_periods %g is invalid: allowed [1, 1e5]", r.integration_periods);
+    return formatted("integration_periods %g is invalid: allowed [1, 1e5]", r.integration_periods);
   if (!std::isfinite(r.min_integration_time) || r.min_integration_time < 0.0 ||
       r.min_integration_time > 3600.0)
-    return format("min_integration_time %g s is invalid: allowed [0, 3600] s", r.min_integration_time);
+    return formatted("min_integration_time %g s is invalid: allowed [0, 3600] s", r.min_integration_time);
   if (r.totalDuration() > limits.max_duration) {
-    return format("the sweep would take %.1f s, longer than sweep_max_duration = %g s", r.totalDuration(),
+    return formatted("the sweep would take %.1f s, longer than sweep_max_duration = %g s", r.totalDuration(),
                   limits.max_duration);
   }
   {
@@ -141,7 +137,7 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
     std::sort(distinct.begin(), distinct.end());
     const auto size = std::unique(distinct.begin(), distinct.end()) - distinct.begin();
     if (size < kMinSweepFrequencies) {
-      return format("%g distinct frequencies requested: the valve model's fit needs at least 5",
+      return formatted("%g distinct frequencies requested: the valve model's fit needs at least 5",
                     static_cast<double>(size));
     }
   }
@@ -174,7 +170,7 @@ double ValveSweep::currentFrequency() const {
 
 std::string ValveSweep::start(const SweepRequest& request, double now, const PlantCondition& plant) {
   if (running()) {
-    return format("a sweep is already running (frequency %g of %g); abort it first", index_ + 1.0,
+    return formatted("a sweep is already running (frequency %g of %g); abort it first", index_ + 1.0,
                   static_cast<double>(request_.frequencies.size()));
   }
   const std::string invalid = checkSweepRequest(request, limits_);
@@ -184,12 +180,12 @@ std::string ValveSweep::start(const SweepRequest& request, double now, const Pla
     return "the chamber pressure is unknown or stale, so the pressure limit cannot be checked";
   }
   if (plant.pressure > limits_.max_pressure) {
-    return format("the chamber pressure %.1f bar is above the sweep limit %.1f bar (sweep_max_pressure)",
+    return formatted("the chamber pressure %.1f bar is above the sweep limit %.1f bar (sweep_max_pressure)",
                   plant.pressure * 1e-5, limits_.max_pressure * 1e-5);
   }
   if (!std::isfinite(plant.velocity)) return "the cushion velocity is unknown, so rest cannot be confirmed";
   if (std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    return format("the cushion is moving (%.4f m/s; at rest below %g m/s): sweeps run only at rest",
+    return formatted("the cushion is moving (%.4f m/s; at rest below %g m/s): sweeps run only at rest",
                   plant.velocity, limits_.max_rest_velocity);
   }
   if (!(plant.spool_age <= limits_.signal_timeout)) {
@@ -212,15 +208,15 @@ void ValveSweep::supervise(double now, const PlantCondition& plant) {
   if (!running()) return;
   (void)now;
   if (!(plant.spool_age <= limits_.signal_timeout)) {
-    abort(format("spool signal stale (last sample %.1f ms ago, limit %.1f ms)", plant.spool_age * 1e3,
+    abort(formatted("spool signal stale (last sample %.1f ms ago, limit %.1f ms)", plant.spool_age * 1e3,
                  limits_.signal_timeout * 1e3));
   } else if (!(plant.pressure_age <= limits_.signal_timeout) || !std::isfinite(plant.pressure)) {
     abort("pressure signal stale or not finite: the pressure limit cannot be checked");
   } else if (plant.pressure > limits_.max_pressure) {
-    abort(format("chamber pressure %.1f bar over the sweep limit %.1f bar", plant.pressure * 1e-5,
+    abort(formatted("chamber pressure %.1f bar over the sweep limit %.1f bar", plant.pressure * 1e-5,
                  limits_.max_pressure * 1e-5));
   } else if (std::isfinite(plant.velocity) && std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    abort(format("the cushion started moving (%.4f m/s)", plant.velocity));
+    abort(formatted("the cushion started moving (%.4f m/s)", plant.velocity));
   }
 }
 

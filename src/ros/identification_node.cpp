@@ -11,6 +11,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "die_cushion_ident/core/formatted.h"
 #include "die_cushion_ident/core/formula_search.h"
 #include "message_conversions.h"
 
@@ -47,12 +48,6 @@ std::string join(const std::vector<std::string>& items, const char* separator) {
   std::string out;
   for (const auto& item : items) out += (out.empty() ? "" : separator) + item;
   return out;
-}
-
-std::string formatted(const char* pattern, double value) {
-  char buffer[256];
-  std::snprintf(buffer, sizeof(buffer), pattern, value);
-  return buffer;
 }
 
 }  // namespace

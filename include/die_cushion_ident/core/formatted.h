@@ -1,0 +1,15 @@
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+namespace die_cushion_ident {
+
+/// printf of up to three numbers into a string, for the numbers in messages and explanations.
+inline std::string formatted(const char* pattern, double a = 0.0, double b = 0.0, double c = 0.0) {
+  char text[512];
+  std::snprintf(text, sizeof(text), pattern, a, b, c);
+  return text;
+}
+
+}  // namespace die_cushion_ident
