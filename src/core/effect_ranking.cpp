@@ -50,12 +50,11 @@ void correctForMultipleTests(std::vector<Judged>& round, const EffectRankingOpti
   const std::vector<bool> rejected = holmRejected(p_values, options.significance);
   for (std::size_t i = 0; i < round.size(); ++i) {
     CandidateEffect& c = round[i].candidate;
-    if (c.verdict != "missing" || rejected[i]) continue;
+    if (c.verdict != "missing") continue;
+    const std::string demoted = holmDemotion(c.error_reduction, c.p_value, rejected[i], round.size(), "extensions");
+    if (demoted.empty()) continue;
     c.verdict = "inconclusive";
-    c.explanation = round[i].physics + "; " + formatted("%.0f %%", 100.0 * c.error_reduction) +
-                    " less held-out error, but not significant once corrected for the " +
-                    std::to_string(round.size()) + " extensions tried (Holm; one-sided p = " +
-                    formatted("%.2g", c.p_value) + ")";
+    c.explanation = round[i].physics + demoted;
   }
 }
 
@@ -68,15 +67,16 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   candidate.effect = names.front();
   IdentificationConfig extended = model;
   std::string physics, implausible;
+  std::vector<ParameterInfo> infos;
   for (const auto& name : names) {
     extended.effects.push_back(name);
     const auto effect = makeLibraryEffect(name);
     physics += (physics.empty() ? "" : "; ") + effect->explanation();
+    infos.push_back(effect->parameterFor(model.geometry));
   }
   // The effects' parameters fitted on all the data, in physical units.
   const HydraulicEstimate all = fitOnCycles(grid, strokes, extended, INT_MIN, INT_MAX);
-  for (const auto& name : names) {
-    const ParameterInfo info = makeLibraryEffect(name)->parameterFor(model.geometry);
+  for (const ParameterInfo& info : infos) {
     for (const auto& p : all.parameters) {
       if (p.name != info.name) continue;
       candidate.parameters.push_back(p);
@@ -102,26 +102,10 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   candidate.t_statistic = test.t_statistic;
   candidate.p_value = test.p_value;
   candidate.held_out_cycles = test.cycles;
-  const std::string reduction = formatted("%.0f %%", 100.0 * candidate.error_reduction);
-  if (!implausible.empty()) {
-    candidate.verdict = "not_needed";
-    candidate.explanation = physics + implausible;
-  } else if (test.cycles < options.min_held_out_cycles) {
-    candidate.verdict = "inconclusive";
-    candidate.explanation = physics + "; only " + std::to_string(test.cycles) + " held-out cycles";
-  } else if (candidate.error_reduction >= options.missing_reduction && test.significant) {
-    candidate.verdict = "missing";
-    candidate.explanation = physics + "; " + (names.size() > 1 ? "together they remove " : "it removes ") +
-                            reduction + " of the free-run error on cycles it was not fitted to";
-  } else if (candidate.error_reduction < options.not_needed_reduction) {
-    candidate.verdict = "not_needed";
-    candidate.explanation = physics + "; it changes the held-out error by only " + reduction;
-  } else {
-    candidate.verdict = "inconclusive";
-    candidate.explanation = physics + "; " + reduction +
-                            " less held-out error, but not consistently over the cycles (t = " +
-                            formatted("%.2f", candidate.t_statistic) + ")";
-  }
+  const HeldOutVerdict verdict =
+      judgeHeldOut(test, implausible, options, names.size() > 1 ? "together they remove" : "it removes");
+  candidate.verdict = verdict.verdict;
+  candidate.explanation = physics + verdict.reason;
   return judged;
 }
 
@@ -219,6 +203,31 @@ std::string quotedList(const std::vector<EffectStep>& steps) {
 }
 
 }  // namespace
+
+HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& implausible,
+                            const EffectRankingOptions& options, const std::string& removes) {
+  const std::string reduction = formatted("%.0f %%", 100.0 * test.error_reduction);
+  if (!implausible.empty()) return {"not_needed", implausible};
+  if (test.cycles < options.min_held_out_cycles) {
+    return {"inconclusive", "; only " + std::to_string(test.cycles) + " held-out cycles"};
+  }
+  if (test.error_reduction >= options.missing_reduction && test.significant) {
+    return {"missing", "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
+  }
+  if (test.error_reduction < options.not_needed_reduction) {
+    return {"not_needed", "; it changes the held-out error by only " + reduction};
+  }
+  return {"inconclusive", "; " + reduction + " less held-out error, but not consistently over the cycles (t = " +
+                              formatted("%.2f", test.t_statistic) + ")"};
+}
+
+std::string holmDemotion(double error_reduction, double p_value, bool rejected, std::size_t tried,
+                         const std::string& what) {
+  if (rejected) return "";
+  return "; " + formatted("%.0f %%", 100.0 * error_reduction) +
+         " less held-out error, but not significant once corrected for the " + std::to_string(tried) + " " + what +
+         " tried (Holm; one-sided p = " + formatted("%.2g", p_value) + ")";
+}
 
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
   return std::max(options.unexplained_noise_factor * noise_rms, 1e5);

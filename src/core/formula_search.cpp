@@ -365,30 +365,14 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
   proposal.held_out_cycles = test.cycles;
   proposal.t_statistic = test.t_statistic;
   proposal.p_value = test.p_value;
-  const std::string physics = term.explanation();
-  if (!(theta > 0.0)) {
-    proposal.verdict = "not_needed";
-    proposal.explanation = physics + "; fitted on all the data its coefficient comes out " +
-                           (theta < 0.0 ? "negative" : "zero") + ", which is not physical";
-  } else if (test.cycles < ranking.min_held_out_cycles) {
-    proposal.verdict = "inconclusive";
-    proposal.explanation = physics + "; only " + std::to_string(test.cycles) + " held-out cycles";
-  } else if (test.error_reduction >= ranking.missing_reduction && test.significant) {
-    proposal.verdict = "missing";
-    proposal.explanation = physics + "; it removes " + formatted("%.0f %%", 100.0 * test.error_reduction) +
-                           " of the free-run error on cycles it was not fitted to";
-  } else if (test.error_reduction < ranking.not_needed_reduction) {
-    proposal.verdict = "not_needed";
-    proposal.explanation = physics + "; it changes the held-out error by only " + formatted("%.0f %%", 100.0 * test.error_reduction);
-  } else {
-    proposal.verdict = "inconclusive";
-    char t[32];
-    std::snprintf(t, sizeof(t), "%.2f", test.t_statistic);
-    proposal.explanation = physics + "; " + formatted("%.0f %%", 100.0 * test.error_reduction) +
-                           " less held-out error, but not consistently over the cycles (t = " + t + ")";
-  }
+  const std::string implausible =
+      theta > 0.0 ? std::string()
+                  : std::string("; fitted on all the data its coefficient comes out ") +
+                        (theta < 0.0 ? "negative" : "zero") + ", which is not physical";
+  const HeldOutVerdict verdict = judgeHeldOut(test, implausible, ranking);
+  proposal.verdict = verdict.verdict;
+  proposal.explanation = term.explanation() + verdict.reason;
   screen.binned(term, &proposal.bin_signal, &proposal.bin_residual, &proposal.bin_term);
-  proposal.held_out_cycles = test.cycles;
   return proposal;
 }
 
@@ -438,11 +422,11 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
   const std::vector<bool> rejected = holmRejected(p_values, ranking.significance);
   for (std::size_t i = 0; i < proven.size(); ++i) {
     FormulaProposal& p = proven[i].first;
-    if (p.verdict != "missing" || rejected[i]) continue;
+    if (p.verdict != "missing") continue;
+    const std::string demoted = holmDemotion(p.error_reduction, p.p_value, rejected[i], proven.size(), "formulas");
+    if (demoted.empty()) continue;
     p.verdict = "inconclusive";
-    p.explanation = p.explanation.substr(0, p.explanation.find(';')) + "; " + formatted("%.0f %%", 100.0 * p.error_reduction) +
-                    " less held-out error, but not significant once corrected for the " +
-                    std::to_string(proven.size()) + " formulas tried (Holm)";
+    p.explanation = p.explanation.substr(0, p.explanation.find(';')) + demoted;
   }
   orderProposals(proven, options.tie);
   std::vector<FormulaProposal> result;

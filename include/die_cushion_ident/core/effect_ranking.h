@@ -91,6 +91,24 @@ struct EffectRankingOptions {
   int split(int cycles) const { return cycles / 2; }
 };
 
+/// A verdict on an extension of a model and its reason, to follow the extension's physics ("; ...").
+struct HeldOutVerdict {
+  std::string verdict;  ///< missing | not_needed | inconclusive
+  std::string reason;
+};
+
+/// The rule every extension (library effect, pair, formula) is judged by: a fit outside the physical range
+/// (`implausible`: its reason, or empty) is not_needed; too few held-out cycles inconclusive; at least
+/// missing_reduction less held-out error and significant missing; below not_needed_reduction not_needed;
+/// else inconclusive. `removes` words the missing reason ("it removes", "together they remove").
+HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& implausible,
+                            const EffectRankingOptions& options, const std::string& removes = "it removes");
+
+/// Holm's correction over one round of `tried` extensions: empty when the missing verdict stands, else
+/// the reason it becomes inconclusive.
+std::string holmDemotion(double error_reduction, double p_value, bool rejected, std::size_t tried,
+                         const std::string& what);
+
 /// The held-out error above which the error left is "structured": a multiple of the noise, and 1 bar.
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options);
 
