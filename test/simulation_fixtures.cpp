@@ -25,6 +25,15 @@ SimulatorConfig randomPlant(std::uint64_t seed, const std::vector<std::string>& 
   return c;
 }
 
+Recording record(const SimulatorConfig& plant, int cycles) {
+  Recording r;
+  r.plant = plant;
+  DieCushionSimulator simulator(plant);
+  r.grid = simulateGrid(simulator, cycles * simulator.program().cycleDuration());
+  r.strokes = segmentStrokes(r.grid);
+  return r;
+}
+
 IdentificationConfig configFor(const SimulatorConfig& plant, const std::vector<std::string>& effects) {
   IdentificationConfig c;
   c.geometry = plant.geometry;

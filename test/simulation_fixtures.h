@@ -6,6 +6,7 @@
 
 #include "die_cushion_ident/core/die_cushion_simulator.h"
 #include "die_cushion_ident/core/identification_pipeline.h"
+#include "die_cushion_ident/core/model_assessment.h"
 
 namespace die_cushion_ident {
 namespace testing {
@@ -19,6 +20,17 @@ IdentificationConfig configFor(const SimulatorConfig& plant, const std::vector<s
 
 /// Runs the plant for `duration` seconds and feeds every message through `pipeline`.
 void feed(DieCushionSimulator& plant, IdentificationPipeline& pipeline, double duration);
+
+/// A simulated recording on the 2 ms grid, with its strokes.
+struct Recording {
+  SimulatorConfig plant;
+  std::vector<GridSample> grid;
+  StrokeSegmentation strokes;
+  double truth(const std::string& name) const { return plant.parameters.at(name); }
+};
+
+/// `cycles` press cycles of `plant`.
+Recording record(const SimulatorConfig& plant, int cycles = 8);
 
 /// Value of a named estimate; fails the calling test if absent.
 double estimateOf(const HydraulicEstimate& estimate, const std::string& name);

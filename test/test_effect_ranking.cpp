@@ -17,25 +17,8 @@
 namespace die_cushion_ident {
 namespace {
 
-struct Recording {
-  SimulatorConfig plant;
-  std::vector<GridSample> grid;
-  StrokeSegmentation strokes;
-  double truth(const std::string& name) const { return plant.parameters.at(name); }
-};
-
-Recording record(SimulatorConfig plant, int cycles = 8) {
-  Recording r;
-  r.plant = plant;
-  DieCushionSimulator simulator(plant);
-  std::vector<SimulatedMeasurement> messages;
-  simulator.run(cycles * simulator.program().cycleDuration(), &messages);
-  UniformResampler resampler({});
-  for (const auto& m : messages) resampler.push(m.stream, m.sample, &r.grid);
-  resampler.flush(&r.grid);
-  r.strokes = segmentStrokes(r.grid);
-  return r;
-}
+using testing::record;
+using testing::Recording;
 
 double freeRunError(const Recording& r, const IdentificationConfig& config) {
   const HydraulicEstimate e = fitOnCycles(r.grid, r.strokes, config, -2, 1 << 30);

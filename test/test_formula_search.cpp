@@ -15,24 +15,8 @@
 namespace die_cushion_ident {
 namespace {
 
-struct Recording {
-  SimulatorConfig plant;
-  std::vector<GridSample> grid;
-  StrokeSegmentation strokes;
-};
-
-Recording record(const SimulatorConfig& plant, int cycles = 8) {
-  Recording r;
-  r.plant = plant;
-  DieCushionSimulator simulator(plant);
-  std::vector<SimulatedMeasurement> messages;
-  simulator.run(cycles * simulator.program().cycleDuration(), &messages);
-  UniformResampler resampler({});
-  for (const auto& m : messages) resampler.push(m.stream, m.sample, &r.grid);
-  resampler.flush(&r.grid);
-  r.strokes = segmentStrokes(r.grid);
-  return r;
-}
+using testing::record;
+using testing::Recording;
 
 struct OutOfLibrary {
   const char* name;

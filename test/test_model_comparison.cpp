@@ -11,16 +11,6 @@
 namespace die_cushion_ident {
 namespace {
 
-std::vector<GridSample> gridOf(DieCushionSimulator& plant, double duration) {
-  std::vector<SimulatedMeasurement> messages;
-  plant.run(duration, &messages);
-  UniformResampler resampler({});
-  std::vector<GridSample> grid;
-  for (const auto& m : messages) resampler.push(m.stream, m.sample, &grid);
-  resampler.flush(&grid);
-  return grid;
-}
-
 double freeRunErrorRms(const std::vector<GridSample>& grid, const HydraulicModel& model,
                        const ParameterVector& parameters) {
   FreeRunPressure free_run(model, 5e5);
@@ -40,7 +30,7 @@ double freeRunErrorRms(const std::vector<GridSample>& grid, const HydraulicModel
 TEST(FreeRunPressure, TrueModelFollowsTheMeasurementAndAWrongOneDoesNot) {
   auto config = testing::randomPlant(5, {"leakage"});
   DieCushionSimulator plant(config);
-  const auto grid = gridOf(plant, 3 * plant.program().cycleDuration());
+  const auto grid = simulateGrid(plant, 3 * plant.program().cycleDuration());
   const ParameterVector truth = plant.trueParameters();
   const double true_error = freeRunErrorRms(grid, plant.model(), truth);
   // Measurement noise is 0.2 bar; the rest is the 2 ms grid's interpolation of the inputs.
@@ -56,7 +46,7 @@ TEST(FreeRunPressure, TrueModelFollowsTheMeasurementAndAWrongOneDoesNot) {
 TEST(FreeRunPressure, ReanchorsWhereTheModelDoesNotHold) {
   auto config = testing::randomPlant(6);
   DieCushionSimulator plant(config);
-  const auto grid = gridOf(plant, plant.program().cycleDuration());
+  const auto grid = simulateGrid(plant, plant.program().cycleDuration());
   FreeRunPressure free_run(plant.model(), 5e5);
   GridSample gap = grid[100];
   gap.complete = false;
@@ -72,7 +62,7 @@ TEST(FreeRunPressure, ReanchorsWhereTheModelDoesNotHold) {
 TEST(StrokePhaseClassifier, AgreesWithTheSimulatedPressProgram) {
   auto config = testing::randomPlant(7);
   DieCushionSimulator plant(config);
-  const auto grid = gridOf(plant, 4 * plant.program().cycleDuration());
+  const auto grid = simulateGrid(plant, 4 * plant.program().cycleDuration());
   StrokePhaseClassifier classifier;
   std::map<StrokePhase, int> total, right;
   int all_right = 0;

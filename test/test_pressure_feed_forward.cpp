@@ -28,14 +28,9 @@ TEST(PressureFeedForward, TheIdentifiedModelTracksTheDrawingPressureThreeTimesBe
     SCOPED_TRACE("seed " + std::to_string(seed));
     const SimulatorConfig plant = testing::randomPlant(seed, effects);
     // Identified from a recording made with the press's own controller.
-    DieCushionSimulator recorder(plant);
-    std::vector<SimulatedMeasurement> messages;
-    recorder.run(6 * recorder.program().cycleDuration(), &messages);
-    UniformResampler resampler({});
-    std::vector<GridSample> grid;
-    for (const auto& m : messages) resampler.push(m.stream, m.sample, &grid);
-    resampler.flush(&grid);
-    const StrokeSegmentation strokes = segmentStrokes(grid);
+    const testing::Recording recording = testing::record(plant, 6);
+    const std::vector<GridSample>& grid = recording.grid;
+    const StrokeSegmentation& strokes = recording.strokes;
     const IdentificationConfig config = testing::configFor(plant, effects);
     const HydraulicEstimate estimate = fitOnCycles(grid, strokes, config, INT_MIN, INT_MAX);
     const HydraulicModel model = HydraulicModel::fromNames(config.geometry, effects);

@@ -42,7 +42,9 @@ TEST(SettingsStudy, ReproducesThePapersFindingsAndMeasuresTheIntegralFormsBias) 
       const double bound = p.parameter == "dead_volume" ? 0.06 : 0.01;
       EXPECT_LT(std::abs(p.bias), bound) << p.parameter << " b " << p.moving_average_width << " d " << p.derivative_width;
       const auto& paper = find(points, RegressionForm::kDerivative, p.moving_average_width, p.derivative_width, p.parameter);
-      if (p.parameter == "dead_volume") EXPECT_LT(std::abs(p.bias), 0.25 * std::abs(paper.bias)) << p.parameter;
+      if (p.parameter == "dead_volume") {
+        EXPECT_LT(std::abs(p.bias), 0.25 * std::abs(paper.bias)) << p.parameter;
+      }
     }
   }
   const auto derivative = RegressionForm::kDerivative;

@@ -104,14 +104,7 @@ TEST(StepResponse, ASamplingTimeAboveATenthOfT63IsWarnedAbout) {
 }
 
 TEST(StepResponse, PressCyclesAndSmallCommandChangesAreNoStepTest) {
-  DieCushionSimulator simulator(testing::randomPlant(54));
-  std::vector<SimulatedMeasurement> messages;
-  simulator.run(4 * simulator.program().cycleDuration(), &messages);
-  UniformResampler resampler({});
-  std::vector<GridSample> grid;
-  for (const auto& m : messages) resampler.push(m.stream, m.sample, &grid);
-  resampler.flush(&grid);
-  EXPECT_TRUE(findStepResponses(grid).empty()) << "the controller's commands during strokes are no step test";
+  EXPECT_TRUE(findStepResponses(testing::record(testing::randomPlant(54), 4).grid).empty()) << "the controller's commands during strokes are no step test";
   EXPECT_TRUE(findStepResponses(recordStep(55, 0.05).grid).empty()) << "below min_step";
   EXPECT_TRUE(findStepResponses(recordStep(55, -0.5, 0.1).grid).empty()) << "held too briefly";
 }

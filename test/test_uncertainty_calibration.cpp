@@ -42,12 +42,7 @@ TEST(ParameterUncertainty, ReportedStandardDeviationsAreCalibratedOverRandomPlan
     const auto& effects = models[i % models.size()];
     const SimulatorConfig plant = testing::randomPlant(seed, effects);
     DieCushionSimulator simulator(plant);
-    std::vector<SimulatedMeasurement> messages;
-    simulator.run(8 * simulator.program().cycleDuration(), &messages);
-    UniformResampler resampler({});
-    std::vector<GridSample> grid;
-    for (const auto& m : messages) resampler.push(m.stream, m.sample, &grid);
-    resampler.flush(&grid);
+    const std::vector<GridSample> grid = simulateGrid(simulator, 8 * simulator.program().cycleDuration());
     const StrokeSegmentation strokes = segmentStrokes(grid);
     const IdentificationConfig config = testing::configFor(plant, effects);
     const HydraulicEstimate fitted = fitOnCycles(grid, strokes, config, INT_MIN, INT_MAX);
@@ -84,14 +79,12 @@ TEST(ParameterUncertainty, ReportedStandardDeviationsAreCalibratedOverRandomPlan
 TEST(ParameterUncertainty, AParameterThatChangesDuringTheRecordingIsFlagged) {
   const SimulatorConfig plant = testing::randomPlant(3);
   DieCushionSimulator simulator(plant);
-  std::vector<SimulatedMeasurement> messages;
   const double cycle = simulator.program().cycleDuration();
-  simulator.run(5 * cycle, &messages);
-  simulator.setTrueParameter("bulk_modulus", simulator.trueParameter("bulk_modulus") * 2.0 / 3.0);
-  simulator.run(5 * cycle, &messages);
   UniformResampler resampler({});
   std::vector<GridSample> grid;
-  for (const auto& m : messages) resampler.push(m.stream, m.sample, &grid);
+  simulateOnGrid(simulator, 5 * cycle, resampler, &grid);
+  simulator.setTrueParameter("bulk_modulus", simulator.trueParameter("bulk_modulus") * 2.0 / 3.0);
+  simulateOnGrid(simulator, 5 * cycle, resampler, &grid);
   resampler.flush(&grid);
   const StrokeSegmentation strokes = segmentStrokes(grid);
   const IdentificationConfig config = testing::configFor(plant, {});
@@ -103,12 +96,7 @@ TEST(ParameterUncertainty, AParameterThatChangesDuringTheRecordingIsFlagged) {
 
   // The same plant unchanged: no warning.
   DieCushionSimulator steady(plant);
-  messages.clear();
-  steady.run(10 * cycle, &messages);
-  UniformResampler again({});
-  std::vector<GridSample> steady_grid;
-  for (const auto& m : messages) again.push(m.stream, m.sample, &steady_grid);
-  again.flush(&steady_grid);
+  const std::vector<GridSample> steady_grid = simulateGrid(steady, 10 * cycle);
   const StrokeSegmentation steady_strokes = segmentStrokes(steady_grid);
   const auto none = parametersThatVaryOverTheRecording(
       steady_grid, steady_strokes, config, fitOnCycles(steady_grid, steady_strokes, config, INT_MIN, INT_MAX));

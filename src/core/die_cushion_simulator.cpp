@@ -198,6 +198,22 @@ void DieCushionSimulator::sampleSensors(std::vector<SimulatedMeasurement>* out) 
   }
 }
 
+void simulateOnGrid(DieCushionSimulator& simulator, double duration, UniformResampler& resampler,
+                    std::vector<GridSample>* grid) {
+  std::vector<SimulatedMeasurement> messages;
+  simulator.run(duration, &messages);
+  for (const auto& m : messages) resampler.push(m.stream, m.sample, grid);
+}
+
+std::vector<GridSample> simulateGrid(DieCushionSimulator& simulator, double duration,
+                                     const UniformResampler::Config& config) {
+  UniformResampler resampler(config);
+  std::vector<GridSample> grid;
+  simulateOnGrid(simulator, duration, resampler, &grid);
+  resampler.flush(&grid);
+  return grid;
+}
+
 double drawingPressureErrorRms(SimulatorConfig plant, std::shared_ptr<const PressureFeedForward> feed_forward,
                                bool nominal_velocity_feed_forward, int cycles) {
   plant.controller.velocity_feed_forward = nominal_velocity_feed_forward;

@@ -35,12 +35,8 @@ std::vector<double> relativeErrors(SimulatorConfig plant, IdentificationConfig c
   config.identification_period = std::max(1.0, std::round(config.identification_period / s.sample_period)) *
                                  s.sample_period;
   DieCushionSimulator simulator(plant);
-  UniformResampler resampler(config.resamplerConfig());
-  std::vector<GridSample> grid;
-  std::vector<SimulatedMeasurement> messages;
-  simulator.run(cycles * simulator.program().cycleDuration(), &messages);
-  for (const auto& m : messages) resampler.push(m.stream, m.sample, &grid);
-  resampler.flush(&grid);
+  const std::vector<GridSample> grid =
+      simulateGrid(simulator, cycles * simulator.program().cycleDuration(), config.resamplerConfig());
   // The whole run without forgetting, as analyze_bag fits a recording: the settings' own bias and scatter,
   // not the forgetting window's.
   const HydraulicEstimate e = fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX);

@@ -120,6 +120,14 @@ class DieCushionSimulator {
   std::int64_t sample_index_[kInputStreamCount] = {0, 0, 0};
 };
 
+/// Runs `simulator` for `duration` seconds and passes what its sensors sent through `resampler` onto
+/// `grid` (not flushed: a run in several parts keeps one grid).
+void simulateOnGrid(DieCushionSimulator& simulator, double duration, UniformResampler& resampler,
+                    std::vector<GridSample>* grid);
+/// The same for one run, flushed: the uniform samples of `duration` seconds of the simulated press.
+std::vector<GridSample> simulateGrid(DieCushionSimulator& simulator, double duration,
+                                     const UniformResampler::Config& resampler = {});
+
 /// The pressure tracking error rms [Pa] during drawing over `cycles` press cycles of `plant` under its PI
 /// controller, with the controller's nominal velocity feed-forward on or off and `feed_forward` (a model's,
 /// may be null) added: the paper's Fig. 19 comparison.
