@@ -92,20 +92,6 @@ Options parseArguments(int argc, char** argv) {
   return o;
 }
 
-bool makeDirectory(const std::string& path) {
-  std::string partial;
-  std::stringstream parts(path);
-  std::string part;
-  if (!path.empty() && path[0] == '/') partial = "/";
-  while (std::getline(parts, part, '/')) {
-    if (part.empty()) continue;
-    partial += part + "/";
-    if (mkdir(partial.c_str(), 0755) != 0 && errno != EEXIST) return false;
-  }
-  struct stat info;
-  return stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
-}
-
 // What one pass over the bag's input topics found.
 struct BagPass {
   std::uint64_t mismatched = 0;        // messages of another definition (md5sum)

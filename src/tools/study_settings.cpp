@@ -5,7 +5,6 @@
 // config's. Writes DIR/settings_study.csv, DIR/settings_{bias,std}_{derivative,integral}.svg (bias and
 // std in % against the moving-average width, a line per derivative width, as in the paper's figures) and
 // DIR/recommendation.txt.
-#include <sys/stat.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -19,6 +18,7 @@
 #include <vector>
 
 #include "analysis_config.h"
+#include "command_line.h"
 #include "die_cushion_ident/core/settings_study.h"
 
 namespace die_cushion_ident {
@@ -150,7 +150,7 @@ int run(int argc, char** argv) {
   }
   base.effects = plant.effects;
   base.custom_effects = plant.custom_effects;
-  if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) fail(4, "cannot create output directory '" + out + "'");
+  if (!makeDirectory(out)) fail(4, "cannot create output directory '" + out + "'");
 
   std::cerr << "study_settings: the press simulated with pressure noise " << plant.sensors.pressure_noise * 1e-5
             << " bar; " << options.seeds << " seeds x " << options.cycles << " cycles per setting on " << options.jobs
