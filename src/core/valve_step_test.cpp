@@ -33,18 +33,8 @@ std::string ValveStepTest::start(StepTestRequest request, double now, const Plan
                   limits_.max_duration);
   }
   if (!std::isfinite(now)) return "the clock is not valid";
-  if (!(plant.pressure_age <= limits_.signal_timeout) || !std::isfinite(plant.pressure)) {
-    return "the chamber pressure is unknown or stale, so the pressure limit cannot be checked";
-  }
-  if (plant.pressure > limits_.max_pressure) {
-    return formatted("the chamber pressure %.1f bar is above %.1f bar (sweep_max_pressure)", plant.pressure * 1e-5,
-                  limits_.max_pressure * 1e-5);
-  }
-  if (!std::isfinite(plant.velocity)) return "the cushion velocity is unknown, so rest cannot be confirmed";
-  if (std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    return formatted("the cushion is moving (%.4f m/s; at rest below %g m/s): step tests run only at rest",
-                  plant.velocity, limits_.max_rest_velocity);
-  }
+  const std::string not_at_rest = atRestRefusal(plant, limits_, "step tests");
+  if (!not_at_rest.empty()) return not_at_rest;
   request_ = request;
   state_ = State::kRunning;
   start_time_ = now;

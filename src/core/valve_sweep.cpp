@@ -168,6 +168,23 @@ double ValveSweep::currentFrequency() const {
   return request_.frequencies[index_];
 }
 
+std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits, const std::string& tests) {
+  if (!(plant.pressure_age <= limits.signal_timeout) || !std::isfinite(plant.pressure)) {
+    return "the chamber pressure is unknown or stale, so the pressure limit cannot be checked";
+  }
+  if (plant.pressure > limits.max_pressure) {
+    return formatted("the chamber pressure %.1f bar is above the sweep limit %.1f bar (sweep_max_pressure)",
+                     plant.pressure * 1e-5, limits.max_pressure * 1e-5);
+  }
+  if (!std::isfinite(plant.velocity)) return "the cushion velocity is unknown, so rest cannot be confirmed";
+  if (std::abs(plant.velocity) > limits.max_rest_velocity) {
+    return formatted("the cushion is moving (%.4f m/s; at rest below %g m/s): ", plant.velocity,
+                     limits.max_rest_velocity) +
+           tests + " run only at rest";
+  }
+  return "";
+}
+
 std::string ValveSweep::start(const SweepRequest& request, double now, const PlantCondition& plant) {
   if (running()) {
     return formatted("a sweep is already running (frequency %g of %g); abort it first", index_ + 1.0,
@@ -176,18 +193,8 @@ std::string ValveSweep::start(const SweepRequest& request, double now, const Pla
   const std::string invalid = checkSweepRequest(request, limits_);
   if (!invalid.empty()) return invalid;
   if (!std::isfinite(now)) return "the clock is not valid";
-  if (!(plant.pressure_age <= limits_.signal_timeout) || !std::isfinite(plant.pressure)) {
-    return "the chamber pressure is unknown or stale, so the pressure limit cannot be checked";
-  }
-  if (plant.pressure > limits_.max_pressure) {
-    return formatted("the chamber pressure %.1f bar is above the sweep limit %.1f bar (sweep_max_pressure)",
-                  plant.pressure * 1e-5, limits_.max_pressure * 1e-5);
-  }
-  if (!std::isfinite(plant.velocity)) return "the cushion velocity is unknown, so rest cannot be confirmed";
-  if (std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    return formatted("the cushion is moving (%.4f m/s; at rest below %g m/s): sweeps run only at rest",
-                  plant.velocity, limits_.max_rest_velocity);
-  }
+  const std::string not_at_rest = atRestRefusal(plant, limits_, "sweeps");
+  if (!not_at_rest.empty()) return not_at_rest;
   if (!(plant.spool_age <= limits_.signal_timeout)) {
     return "no measured spool position on the valve topic (stale or NaN): the sweep correlates the spool";
   }

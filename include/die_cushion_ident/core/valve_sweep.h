@@ -62,6 +62,10 @@ struct PlantCondition {
   double spool_age = std::numeric_limits<double>::infinity();
 };
 
+/// Why a valve test (`tests`: "sweeps", "step tests") may not start now: the pressure unknown, stale or
+/// above sweep_max_pressure, or the cushion not known to be at rest; empty when it may.
+std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits, const std::string& tests);
+
 /// Runs a sine sweep on the valve safely and measures its frequency response point by point.
 ///
 /// Each tick the owner reports the plant's condition (supervise), hands over the valve topic's samples
