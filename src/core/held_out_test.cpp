@@ -116,18 +116,19 @@ HydraulicEstimate fitOnStretches(const std::vector<GridSample>& grid, const Iden
         identifier.push(g);
       }
     }
-    return std::make_pair(identifier.estimate(), identifier.physicalParameters());
+    bool reshapes_valve = false;
+    for (int i = 0; i < identifier.model().effectCount(); ++i) {
+      reshapes_valve |= identifier.model().effect(i).coupling() == Effect::Coupling::kValveShape;
+    }
+    return std::make_tuple(identifier.estimate(), identifier.physicalParameters(), reshapes_valve);
   };
-  auto [estimate, physical] = pass(nullptr);
+  auto [estimate, physical, reshapes_valve] = pass(nullptr);
   // Valve-shape effects are linearised at the running estimate; without forgetting, rows linearised at an
   // early, wrong overlap or tank pressure would weigh as much as the rest for good. A second pass with
   // every row linearised at the first pass's estimate removes that (issue 16).
-  const HydraulicModel model = HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
-  bool reshapes_valve = false;
-  for (int i = 0; i < model.effectCount(); ++i) {
-    reshapes_valve |= model.effect(i).coupling() == Effect::Coupling::kValveShape;
+  if (reshapes_valve && estimate.updates > 0 && physical.allFinite()) {
+    std::tie(estimate, physical, std::ignore) = pass(&physical);
   }
-  if (reshapes_valve && estimate.updates > 0 && physical.allFinite()) std::tie(estimate, physical) = pass(&physical);
   return estimate;
 }
 }  // namespace
