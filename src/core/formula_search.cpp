@@ -390,8 +390,7 @@ void orderProposals(std::vector<std::pair<FormulaProposal, int>>& proposals, dou
 // One term on top of `model`: screen, then prove the best few shapes.
 std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                            const IdentificationConfig& model, const HeldOutErrors& base,
-                                           const EffectRankingOptions& ranking, const FormulaSearchOptions& options,
-                                           std::vector<HeldOutErrors>* held_out) {
+                                           const EffectRankingOptions& ranking, const FormulaSearchOptions& options) {
   const HydraulicModel hydraulic = HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects);
   const HydraulicEstimate fitted = fitOnCycles(grid, strokes, model, INT_MIN, INT_MAX);
   ParameterVector theta(hydraulic.parameterCount());
@@ -431,7 +430,6 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
   orderProposals(proven, options.tie);
   std::vector<FormulaProposal> result;
   for (auto& p : proven) result.push_back(std::move(p.first));
-  if (held_out && !result.empty() && result.front().verdict == "missing") held_out->push_back(result.front().held_out);
   return result;
 }
 
@@ -441,16 +439,15 @@ std::vector<FormulaProposal> proposeFormulas(const std::vector<GridSample>& grid
                                              const IdentificationConfig& model, const HeldOutErrors& base,
                                              double structured_floor, const EffectRankingOptions& ranking,
                                              const FormulaSearchOptions& options) {
-  std::vector<HeldOutErrors> held_out;
-  std::vector<FormulaProposal> proposals = searchOneTerm(grid, strokes, model, base, ranking, options, &held_out);
+  std::vector<FormulaProposal> proposals = searchOneTerm(grid, strokes, model, base, ranking, options);
   if (options.max_terms < 2 || proposals.empty() || proposals.front().verdict != "missing") return proposals;
   const FormulaProposal& first = proposals.front();
-  if (held_out.empty() || held_out.front().rms <= structured_floor) return proposals;
+  if (first.held_out.rms <= structured_floor) return proposals;
   // Structured error left after the first term: a second one, proven against the model with the first.
   IdentificationConfig extended = model;
   extended.custom_effects.push_back(first.spec());
   std::vector<FormulaProposal> second =
-      searchOneTerm(grid, strokes, extended, held_out.front(), ranking, options, nullptr);
+      searchOneTerm(grid, strokes, extended, first.held_out, ranking, options);
   if (!second.empty() && second.front().verdict == "missing") {
     second.front().together_with = first.name;
     second.front().explanation += " (together with '" + first.name + "')";
