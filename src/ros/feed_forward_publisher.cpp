@@ -61,7 +61,8 @@ void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& mod
   }
   try {
     if (!feed_forward_ || model_ != &model || valve_identified_ != (valve != nullptr) ||
-        wanted.gain != valve_used_.gain || wanted.dead_time != valve_used_.dead_time) {
+        wanted.gain != valve_used_.gain || wanted.dead_time != valve_used_.dead_time ||
+        wanted.natural_frequency != valve_used_.natural_frequency || wanted.damping != valve_used_.damping) {
       feed_forward_ = std::make_unique<PressureFeedForward>(model, physical, wanted, limit_);
       model_ = &model;
       valve_used_ = wanted;
