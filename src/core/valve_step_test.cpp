@@ -47,14 +47,8 @@ std::string ValveStepTest::start(StepTestRequest request, double now, const Plan
 void ValveStepTest::supervise(double now, const PlantCondition& plant) {
   if (!running()) return;
   (void)now;
-  if (!(plant.pressure_age <= limits_.signal_timeout) || !std::isfinite(plant.pressure)) {
-    abort("pressure signal stale or not finite: the pressure limit cannot be checked");
-  } else if (plant.pressure > limits_.step_max_pressure) {
-    abort(formatted("chamber pressure %.1f bar over step_max_pressure %.1f bar", plant.pressure * 1e-5,
-                 limits_.step_max_pressure * 1e-5));
-  } else if (std::isfinite(plant.velocity) && std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    abort(formatted("the cushion started moving (%.4f m/s)", plant.velocity));
-  }
+  const std::string reason = restLostReason(plant, limits_, limits_.step_max_pressure, "step_max_pressure");
+  if (!reason.empty()) abort(reason);
 }
 
 void ValveStepTest::abort(const std::string& reason) {

@@ -185,6 +185,21 @@ std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits
   return "";
 }
 
+std::string restLostReason(const PlantCondition& plant, const SweepLimits& limits, double max_pressure,
+                           const std::string& bound) {
+  if (!(plant.pressure_age <= limits.signal_timeout) || !std::isfinite(plant.pressure)) {
+    return "pressure signal stale or not finite: the pressure limit cannot be checked";
+  }
+  if (plant.pressure > max_pressure) {
+    return formatted("chamber pressure %.1f bar over ", plant.pressure * 1e-5) + bound +
+           formatted(" %.1f bar", max_pressure * 1e-5);
+  }
+  if (std::isfinite(plant.velocity) && std::abs(plant.velocity) > limits.max_rest_velocity) {
+    return formatted("the cushion started moving (%.4f m/s)", plant.velocity);
+  }
+  return "";
+}
+
 std::string ValveSweep::start(const SweepRequest& request, double now, const PlantCondition& plant) {
   if (running()) {
     return formatted("a sweep is already running (frequency %g of %g); abort it first", index_ + 1.0,
@@ -217,13 +232,9 @@ void ValveSweep::supervise(double now, const PlantCondition& plant) {
   if (!(plant.spool_age <= limits_.signal_timeout)) {
     abort(formatted("spool signal stale (last sample %.1f ms ago, limit %.1f ms)", plant.spool_age * 1e3,
                  limits_.signal_timeout * 1e3));
-  } else if (!(plant.pressure_age <= limits_.signal_timeout) || !std::isfinite(plant.pressure)) {
-    abort("pressure signal stale or not finite: the pressure limit cannot be checked");
-  } else if (plant.pressure > limits_.max_pressure) {
-    abort(formatted("chamber pressure %.1f bar over the sweep limit %.1f bar", plant.pressure * 1e-5,
-                 limits_.max_pressure * 1e-5));
-  } else if (std::isfinite(plant.velocity) && std::abs(plant.velocity) > limits_.max_rest_velocity) {
-    abort(formatted("the cushion started moving (%.4f m/s)", plant.velocity));
+  } else {
+    const std::string reason = restLostReason(plant, limits_, limits_.max_pressure, "the sweep limit");
+    if (!reason.empty()) abort(reason);
   }
 }
 

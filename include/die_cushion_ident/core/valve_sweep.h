@@ -65,6 +65,10 @@ struct PlantCondition {
 /// Why a valve test (`tests`: "sweeps", "step tests") may not start now: the pressure unknown, stale or
 /// above sweep_max_pressure, or the cushion not known to be at rest; empty when it may.
 std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits, const std::string& tests);
+/// Why a running valve test must stop: the pressure stale or above `max_pressure` (named `bound`), or the
+/// cushion moving; empty while it may go on.
+std::string restLostReason(const PlantCondition& plant, const SweepLimits& limits, double max_pressure,
+                           const std::string& bound);
 
 /// Runs a sine sweep on the valve safely and measures its frequency response point by point.
 ///
