@@ -79,6 +79,7 @@ std::complex<double> FrequencyPointEstimator::response(OrthogonalCorrelator& com
 FrequencyResponsePoint FrequencyPointEstimator::result() {
   FrequencyResponsePoint point;
   point.frequency = frequency_;
+  point.command_hold = options_.command_hold > 0.0 ? options_.command_hold : 0.0;
   command_.solve();
   spool_.solve();
   point.samples = spool_.samples();

@@ -17,6 +17,9 @@ struct FrequencyResponsePoint {
   double phase_std = 0.0;      ///< [rad]
   int samples = 0;
   double periods = 0.0;  ///< whole periods integrated
+  /// [s] the command hold divided out (0 = continuous). The fit needs it for the alias of the held
+  /// staircase's images at k/hold +- f, which the sampled spool folds back onto f.
+  double command_hold = 0.0;
   /// Relative change of G between half and all of the integration: small when Re/Im have converged.
   double convergence = 0.0;
   /// Re/Im of G after each integrated period (how the correlation converged).

@@ -17,7 +17,7 @@ struct ServoValveFit {
   double natural_frequency_std = 0.0, damping_std = 0.0, gain_std = 0.0, dead_time_std = 0.0;
   double magnitude_residual_rms = 0.0;  ///< [1/V]
   double phase_residual_rms = 0.0;      ///< [rad]
-  /// Weighted squared magnitude residuals per degree of freedom; ~1 when the model explains the points
+  /// Weighted squared complex residuals per degree of freedom; ~1 when the model explains the points
   /// to within their measured noise, >> 1 when it does not (the stds are scaled up by its root then).
   double reduced_chi_square = 0.0;
   int points_used = 0;
@@ -27,10 +27,11 @@ struct ServoValveFit {
 /// G(jw) = K exp(-jw T_dead) / (1 - (f/f0)^2 + 2jD f/f0) at frequency [Hz].
 std::complex<double> servoValveResponse(const ServoValveParameters& parameters, double frequency);
 
-/// Fits natural frequency, damping and gain to the magnitudes by weighted nonlinear least squares (Ceres,
-/// bounded, started from a grid search), then the dead time to the phase left after the 2nd-order phase.
-/// Uncertainties come from the fit's covariance, scaled by the residual when it exceeds the noise, and for
-/// the dead time include the propagated uncertainty of natural frequency and damping.
+/// Fits natural frequency, damping, gain and dead time jointly to the complex points (Re/Im weighted by each
+/// point's measured noise, Ceres, bounded), including the images of a held command (each point's
+/// `command_hold`) that the sampled spool folds back. Started from a magnitude fit (grid search, then
+/// Ceres) and the dead time fitted to the phase left after the 2nd-order phase. Uncertainties come from the
+/// joint fit's covariance, scaled by the reduced chi-square when it exceeds 1.
 ServoValveFit fitServoValve(std::vector<FrequencyResponsePoint> points);
 
 }  // namespace die_cushion_ident
