@@ -1,8 +1,9 @@
 // Issue 13 (paper, §5.1): the filter-width study on the simulator reproduces the paper's findings for the
 // filtered-derivative form (the bias changes with the widths; the std falls as the moving average widens).
-// The integral form keeps bulk modulus and flow gain within 1 % at every width; its dead volume is biased
-// by +1 to +5 %, growing with the widths (a finding of this study, open in issue 13), far below the
-// derivative form's 12-61 %. A reduced grid for the suite; study_settings runs the full one.
+// The integral form keeps flow gain within 1 % and bulk modulus and dead volume within 2 % at every width
+// (before the spool-noise correction at the port's kink, doc/equations.md, the dead volume was biased +1 to
+// +5 % here, growing with the widths), far below the derivative form's 12-61 %. A reduced grid for the
+// suite; study_settings runs the full one.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -39,7 +40,7 @@ TEST(SettingsStudy, ReproducesThePapersFindingsAndMeasuresTheIntegralFormsBias) 
     std::printf("%-10s b %2d d %2d %-16s bias %+7.2f %%  std %6.2f %%\n", regressionFormName(p.form),
                 p.moving_average_width, p.derivative_width, p.parameter.c_str(), 100 * p.bias, 100 * p.std);
     if (p.form == RegressionForm::kIntegral) {
-      const double bound = p.parameter == "dead_volume" ? 0.06 : 0.01;
+      const double bound = p.parameter == "valve_flow_gain" ? 0.01 : 0.02;
       EXPECT_LT(std::abs(p.bias), bound) << p.parameter << " b " << p.moving_average_width << " d " << p.derivative_width;
       const auto& paper = find(points, RegressionForm::kDerivative, p.moving_average_width, p.derivative_width, p.parameter);
       if (p.parameter == "dead_volume") {

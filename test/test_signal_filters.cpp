@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <random>
 #include <stdexcept>
+#include <vector>
 
 #include "die_cushion_ident/core/signal_filters.h"
+#include "die_cushion_ident/core/spool_noise_estimator.h"
 
 using namespace die_cushion_ident;
 
@@ -60,3 +64,27 @@ TEST(DelayLine, ZeroDelayPassesThrough) {
   EXPECT_TRUE(line.push(&v));
   EXPECT_EQ(line.output(0), 7.0);
 }
+
+namespace die_cushion_ident {
+namespace {
+
+// The spool's noise from its second differences, unimpressed by the spool's own motion (a 5 Hz swing of
+// 0.3 on the 2 ms grid) and by a step; within 5 % of the true 0.002 after 20 000 samples.
+TEST(SpoolNoiseEstimator, FindsTheWhiteNoiseUnderAMovingSpool) {
+  SpoolNoiseEstimator estimator;
+  EXPECT_TRUE(std::isinf(estimator.sigma()));
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  std::vector<double> y;
+  for (int k = 0; k < 20000; ++k) {
+    const double t = 0.002 * k;
+    y.push_back(0.3 * std::sin(2 * M_PI * 5 * t) + (k > 10000 ? 0.2 : 0.0) + noise(rng));
+  }
+  for (std::size_t k = 1; k + 1 < y.size(); ++k) estimator.add(y[k - 1], y[k], y[k + 1]);
+  estimator.add(0.0, std::nan(""), 0.0);  // ignored
+  EXPECT_EQ(estimator.count(), 19998);
+  EXPECT_NEAR(estimator.sigma(), 0.002, 0.0001);
+}
+
+}  // namespace
+}  // namespace die_cushion_ident

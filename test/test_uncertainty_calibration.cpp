@@ -1,8 +1,9 @@
 // Issue 16: the standard deviations in summary.yaml mean what they say. Over random simulated plants
 // (0.2 bar pressure noise, 8 press cycles, the right model), |estimate - truth| / std has its median within
-// 0.5-0.9 (0.67 for a Gaussian) and is almost never above 4. Alongside: the delete-a-group jackknife over
-// cycles, which analyze_bag uses to warn of parameters that vary over the recording; with the right model
-// it must rarely exceed 3 x the reported std (a false warning). The suite runs 30 plants;
+// 0.5-0.9 (0.67 for a Gaussian) and is almost never above 4. The stds are the RLS covariance with the
+// Newey-West long-run covariance of the scores (doc/equations.md); for comparison the delete-a-group
+// jackknife over cycles. analyze_bag's warning of parameters that vary over the recording (groups of cycles
+// fitted alone, Cochran's Q at 0.1 %) must rarely fire on these steady plants. The suite runs 30 plants;
 // DCI_CALIBRATION_PLANTS=120 (scripts/false_alarms) the full measurement.
 #include <gtest/gtest.h>
 
@@ -36,6 +37,7 @@ TEST(ParameterUncertainty, ReportedStandardDeviationsAreCalibratedOverRandomPlan
   const char* configured = std::getenv("DCI_CALIBRATION_PLANTS");
   const int plants = configured ? std::atoi(configured) : 30;
   Ratios jackknife, rls, spread;
+  int warned_plants = 0;
   const std::vector<std::vector<std::string>> models = {{}, {"leakage"}, {"entrained_air"}};
   for (int i = 0; i < plants; ++i) {
     const std::uint64_t seed = 2000 + static_cast<std::uint64_t>(i);
@@ -46,6 +48,11 @@ TEST(ParameterUncertainty, ReportedStandardDeviationsAreCalibratedOverRandomPlan
     const StrokeSegmentation strokes = segmentStrokes(grid);
     const IdentificationConfig config = testing::configFor(plant, effects);
     const HydraulicEstimate fitted = fitOnCycles(grid, strokes, config, INT_MIN, INT_MAX);
+    const auto warnings = parametersThatVaryOverTheRecording(grid, strokes, config, fitted);
+    if (!warnings.empty()) {
+      ++warned_plants;
+      std::printf("  plant %llu: false warning: %s\n", static_cast<unsigned long long>(seed), warnings.front().c_str());
+    }
     HydraulicEstimate resampled = fitted;
     ASSERT_TRUE(applyCycleJackknife(grid, strokes, config, &resampled)) << "seed " << seed;
     for (std::size_t k = 0; k < fitted.parameters.size(); ++k) {
@@ -63,15 +70,16 @@ TEST(ParameterUncertainty, ReportedStandardDeviationsAreCalibratedOverRandomPlan
     }
   }
   const double above4 = rls.fractionAbove(4.0);
-  std::printf("|estimate - truth| / std over %d plants, %zu estimates: reported std (RLS covariance x overlap "
-              "factor) median %.2f, %.1f %% above 4; cycle jackknife median %.2f, %.1f %% above 4; jackknife / "
-              "reported std median %.2f, %.1f %% above 3 (false 'varies over the recording' warnings)\n",
+  std::printf("|estimate - truth| / std over %d plants, %zu estimates: reported std (RLS covariance with the "
+              "Newey-West score covariance) median %.2f, %.1f %% above 4; cycle jackknife median %.2f, %.1f %% "
+              "above 4; jackknife / reported std median %.2f; %d plants with a false 'varies over the "
+              "recording' warning\n",
               plants, rls.values.size(), rls.median(), 100 * above4, jackknife.median(),
-              100 * jackknife.fractionAbove(4.0), spread.median(), 100 * spread.fractionAbove(3.0));
+              100 * jackknife.fractionAbove(4.0), spread.median(), warned_plants);
   EXPECT_GE(rls.median(), 0.5);
   EXPECT_LE(rls.median(), 0.9);
   EXPECT_LT(above4, 0.01);
-  EXPECT_LT(spread.fractionAbove(3.0), 0.02);
+  EXPECT_LE(warned_plants, std::max(1, plants / 30));
 }
 
 // A plant that changes during the recording (air drawn in halfway: the bulk modulus falls by a third) is
@@ -91,7 +99,7 @@ TEST(ParameterUncertainty, AParameterThatChangesDuringTheRecordingIsFlagged) {
   const HydraulicEstimate fitted = fitOnCycles(grid, strokes, config, INT_MIN, INT_MAX);
   const auto warnings = parametersThatVaryOverTheRecording(grid, strokes, config, fitted);
   bool bulk_modulus = false;
-  for (const auto& w : warnings) bulk_modulus |= w.rfind("bulk_modulus varies over the recording", 0) == 0;
+  for (const auto& w : warnings) bulk_modulus |= w.rfind("bulk_modulus drifts over the recording", 0) == 0;
   EXPECT_TRUE(bulk_modulus) << (warnings.empty() ? std::string("no warning") : warnings.front());
 
   // The same plant unchanged: no warning.

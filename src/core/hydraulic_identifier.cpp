@@ -45,17 +45,20 @@ HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
   options.forgetting_factor = config_.forgetting_factor;
   rls_ = std::make_unique<RecursiveLeastSquares>(theta0, P0, options);
   regressor_ = std::make_unique<VolumeBalanceRegressor>(model_, config_);
-  // Successive rows share (b + d - 1) samples; rows one identification step apart are therefore correlated
-  // and the RLS covariance, which assumes independent errors, is scaled by the number that overlap.
-  overlap_factor_ =
-      std::max(1.0, static_cast<double>(config_.moving_average_width + config_.derivative_width - 1) /
-                        config_.decimation());
+  // Successive rows share (b + d - 1) samples, so errors of rows up to that many identification steps apart
+  // are correlated. The RLS covariance assumes independent errors; the stds use the Newey-West long-run
+  // covariance of the scores instead, over twice that span (doc/equations.md, "Uncertainty").
+  const int overlapping_steps = static_cast<int>(
+      std::ceil(static_cast<double>(config_.moving_average_width + config_.derivative_width - 1) /
+                config_.decimation()));
+  scores_ = NeweyWestCovariance(n, 2 * overlapping_steps, config_.forgetting_factor);
   refreshLinearisationPoint();
 }
 
 void HydraulicIdentifier::reset() {
   rls_->reset();
   regressor_->clear();
+  scores_.reset();
   rows_ = steps_ = skipped_invalid_ = skipped_unexcited_ = 0;
   error_mean_square_ = error_weight_ = 0.0;
   last_step_updated_ = false;
@@ -115,12 +118,14 @@ bool HydraulicIdentifier::identificationStep() {
   ++steps_;
   if (!row_.valid) {
     ++skipped_invalid_;
+    scores_.skip();
     return false;
   }
   const bool excited = std::abs(row_.velocity) >= config_.min_velocity ||
                        std::abs(row_.pressure_rate) >= config_.min_pressure_rate;
   if (!excited) {
     ++skipped_unexcited_;
+    scores_.skip();
     return false;
   }
   const int n = model_.parameterCount();
@@ -134,10 +139,16 @@ bool HydraulicIdentifier::identificationStep() {
   }
   if (!usable) {
     ++skipped_invalid_;
+    scores_.skip();
     return false;
   }
   const auto status = rls_->update(phi, row_.z / flow_scale_);
-  if (status != RecursiveLeastSquares::UpdateStatus::kUpdated) return false;
+  if (status != RecursiveLeastSquares::UpdateStatus::kUpdated) {
+    scores_.skip();
+    return false;
+  }
+  // The score with the a-posteriori residual: the a-priori one carries the start-up transient.
+  scores_.add(phi * (row_.z / flow_scale_ - phi.dot(rls_->parameters())));
 
   // Equation error in the user's units: flow error over capacitance = error of dp/dt.
   const double capacitance = capacitanceAt(row_);
@@ -165,9 +176,9 @@ HydraulicEstimate HydraulicIdentifier::estimate() const {
   const ParameterVector c = rls_->parameters().cwiseProduct(scale_);
   CovarianceMatrix J;
   const ParameterVector physical = model_.physicalFromCoefficients(c, &J);
-  const CovarianceMatrix coefficient_covariance = scale_.asDiagonal() * rls_->covariance() *
-                                                  scale_.asDiagonal() *
-                                                  (rls_->residualVariance() * overlap_factor_);
+  const CovarianceMatrix& P = rls_->covariance();
+  const CovarianceMatrix coefficient_covariance =
+      scale_.asDiagonal() * (P * scores_.scoreCovariance() * P) * scale_.asDiagonal();
   const CovarianceMatrix physical_covariance = J * coefficient_covariance * J.transpose();
   for (int i = 0; i < n; ++i) {
     const auto& info = model_.parameterInfos()[i];

@@ -91,8 +91,9 @@ double HydraulicModel::chamberVolume(double x, double dead_volume) const {
   return dead_volume + geometry_.piston_area * (geometry_.stroke_length - x);
 }
 
-ValvePort HydraulicModel::basePort(double y, double p) const {
-  return {y, y >= 0.0 ? p : geometry_.supply_pressure - p};
+ValvePort HydraulicModel::basePort(const HydraulicSignals& s) const {
+  const double side = std::isnan(s.port_side) ? s.y : s.port_side;
+  return {s.y, side >= 0.0 ? s.p : geometry_.supply_pressure - s.p};
 }
 
 double HydraulicModel::capacitance(const HydraulicSignals& s, const ParameterVector& physical) const {
@@ -106,7 +107,7 @@ double HydraulicModel::capacitance(const HydraulicSignals& s, const ParameterVec
 }
 
 double HydraulicModel::valveFlow(const HydraulicSignals& s, const ParameterVector& physical) const {
-  ValvePort port = basePort(s.y, s.p);
+  ValvePort port = basePort(s);
   for (int i = 0; i < effectCount(); ++i) {
     if (effects_[i]->coupling() != Effect::Coupling::kValveShape) continue;
     ValvePort unused;
@@ -163,7 +164,7 @@ void HydraulicModel::regressionColumns(const HydraulicSignals& s, const Paramete
 
   // Valve flow q(y, p; nu) at the linearisation point, and its slope in each valve-shape parameter nu_i:
   // K_v q(nu) ~ K_v [q(nu^) - sum nu^_i dq/dnu_i] + sum (K_v nu_i) dq/dnu_i.
-  ValvePort port = basePort(s.y, s.p);
+  ValvePort port = basePort(s);
   ValvePort derivative_of[kMaxParameters];
   for (int i = 0; i < effectCount(); ++i) {
     const Effect& e = *effects_[i];

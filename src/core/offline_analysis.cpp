@@ -5,28 +5,70 @@
 #include <cstdio>
 #include <limits>
 
+#include <boost/math/distributions/chi_squared.hpp>
+
 #include "die_cushion_ident/core/formula_search.h"
+#include "die_cushion_ident/core/held_out_test.h"
 
 namespace die_cushion_ident {
 
 std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<GridSample>& grid,
                                                              const StrokeSegmentation& strokes,
                                                              const IdentificationConfig& config,
-                                                             const HydraulicEstimate& estimate, double factor) {
+                                                             const HydraulicEstimate& estimate, int groups) {
   std::vector<std::string> found;
-  HydraulicEstimate resampled = estimate;
-  if (!applyCycleJackknife(grid, strokes, config, &resampled)) return found;
-  for (std::size_t k = 0; k < estimate.parameters.size(); ++k) {
+  const std::size_t n = estimate.parameters.size();
+  const int g_count = std::min(groups, strokes.cycles);
+  if (g_count < 4 || n == 0) return found;
+  std::vector<HydraulicEstimate> fits;
+  for (int g = 0; g < g_count; ++g) {
+    const int first = g * strokes.cycles / g_count, last = (g + 1) * strokes.cycles / g_count - 1;
+    fits.push_back(fitOnCycles(grid, strokes, config, first, last));
+    if (fits.back().updates == 0 || fits.back().parameters.size() != n) return found;
+  }
+  const boost::math::chi_squared_distribution<double> chi_square(g_count - 1);
+  for (std::size_t k = 0; k < n; ++k) {
     const IdentifiedParameter& p = estimate.parameters[k];
-    const double spread = resampled.parameters[k].std;
-    if (!(spread > factor * p.std) || !(std::abs(p.value) > 0.0)) continue;
-    char text[400];
-    std::snprintf(text, sizeof(text),
-                  "%s varies over the recording %.1f times more than its std says (%.3g %s +- %.2g, but "
-                  "+- %.2g between groups of press cycles): the model misses an effect that weighs "
-                  "differently from stroke to stroke, or the plant changed during the recording; treat its "
-                  "std as %.2g",
-                  p.name.c_str(), spread / p.std, p.value, p.unit.c_str(), p.std, spread, spread);
+    // Cochran's Q: the groups' own estimates around their weighted mean, in units of their own stds.
+    double weights = 0.0, weighted = 0.0;
+    for (const auto& f : fits) {
+      const double w = 1.0 / (f.parameters[k].std * f.parameters[k].std);
+      weights += w;
+      weighted += w * f.parameters[k].value;
+    }
+    const double mean = weighted / weights;
+    double q = 0.0;
+    for (const auto& f : fits) q += std::pow((f.parameters[k].value - mean) / f.parameters[k].std, 2);
+    if (!std::isfinite(q)) continue;
+    const double p_value = boost::math::cdf(boost::math::complement(chi_square, q));
+    const double scatter = std::sqrt(q / (g_count - 1.0));  // how many times their noise the groups disagree
+    if (!(p_value < kVariationSignificance) || !(scatter > kVariationScatter)) continue;
+    // Drift or scatter: the first half of the groups against the second, each a weighted mean.
+    double halves[2] = {0.0, 0.0}, half_weights[2] = {0.0, 0.0};
+    for (int g = 0; g < g_count; ++g) {
+      const int h = 2 * g < g_count ? 0 : 1;
+      const double w = 1.0 / std::pow(fits[g].parameters[k].std, 2);
+      half_weights[h] += w;
+      halves[h] += w * fits[g].parameters[k].value;
+    }
+    const double before = halves[0] / half_weights[0], after = halves[1] / half_weights[1];
+    // The part of Q that one step between the halves explains.
+    const double q_between = std::pow(after - before, 2) / (1.0 / half_weights[0] + 1.0 / half_weights[1]);
+    char text[600];
+    if (q_between > 0.5 * q) {
+      std::snprintf(text, sizeof(text),
+                    "%s drifts over the recording: %.3g %s in the first half of the press cycles, %.3g in the "
+                    "second (%d groups of cycles fitted alone disagree %.1f times more than their stds say, "
+                    "p = %.2g): the plant changed while it was recorded (air drawn in, the oil warming, a seal "
+                    "wearing) or an effect the model lacks grows with time; %.3g is an average",
+                    p.name.c_str(), before, p.unit.c_str(), after, g_count, scatter, p_value, p.value);
+    } else {
+      std::snprintf(text, sizeof(text),
+                    "%s varies from stroke to stroke: %d groups of press cycles fitted alone disagree %.1f "
+                    "times more than their stds say (p = %.2g), without a drift: the model misses an effect "
+                    "that weighs differently from stroke to stroke; treat the std of %.3g %s as %.2g",
+                    p.name.c_str(), g_count, scatter, p_value, p.value, p.unit.c_str(), scatter * p.std);
+    }
     found.push_back(text);
   }
   return found;

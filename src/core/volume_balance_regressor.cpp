@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace die_cushion_ident {
 
@@ -15,9 +16,10 @@ VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model,
       form_(config.regression_form),
       dt_(config.resampler.sample_period),
       n_(model.parameterCount()),
-      // The integral form closes an increment one sample late (its quadrature looks one sample ahead).
+      // The integral form closes an increment one sample late (its quadrature looks one sample ahead), and
+      // takes each sample one sample late (the port side looks at the next spool).
       delay_((config.moving_average_width - 1) / 2 + (config.derivative_width - 1) / 2 +
-             (config.regression_form == RegressionForm::kIntegral ? 1 : 0)),
+             (config.regression_form == RegressionForm::kIntegral ? 2 : 0)),
       raw_(delay_, kRawCount),
       increment_window_(config.derivative_width - 1, model.parameterCount() + 2),
       window_average_(config.moving_average_width, model.parameterCount() + 2),
@@ -31,6 +33,7 @@ void VolumeBalanceRegressor::clear() {
   raw_.clear();
   increment_window_.clear();
   window_average_.clear();
+  pending_count_ = 0;
   node_count_ = 0;
   signal_average_.clear();
   derivative_.clear();
@@ -57,8 +60,31 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
   if (sample.discontinuity) clear();
   const double raw[kRawCount] = {sample.t, sample.p, sample.x, sample.u, sample.y};
   const bool raw_ready = raw_.push(raw);
-  const bool ready = form_ == RegressionForm::kIntegral ? pushIntegral(sample, usable, point, row)
-                                                        : pushDerivative(sample, usable, point, row);
+  bool ready = false;
+  if (form_ == RegressionForm::kDerivative) {
+    ready = pushDerivative(sample, usable, point, row);
+  } else {
+    if (pending_count_ == 3) {
+      pending_[0] = pending_[1];
+      pending_[1] = pending_[2];
+      pending_count_ = 2;
+    }
+    pending_[pending_count_++] = {sample, usable};
+    if (pending_count_ == 3) {
+      const auto known = [&](int k) { return pending_[k].usable && std::isfinite(pending_[k].sample.y); };
+      if (known(0) && known(1) && known(2)) {
+        spool_noise_.add(pending_[0].sample.y, pending_[1].sample.y, pending_[2].sample.y);
+      }
+      const auto drains = [](double y) { return y >= 0.0 ? 1.0 : 0.0; };
+      const double own = drains(pending_[1].sample.y);
+      double drain_weight = own;
+      if (std::abs(pending_[1].sample.y) < 3.0 * spool_noise_.sigma()) {
+        drain_weight = 0.5 * own;
+        for (int k : {0, 2}) drain_weight += 0.25 * (known(k) ? drains(pending_[k].sample.y) : own);
+      }
+      ready = pushIntegral(pending_[1].sample, pending_[1].usable, drain_weight, point, row);
+    }
+  }
   if (!ready || !raw_ready) return false;
   row->t = raw_.output(kT);
   row->p = raw_.output(kP);
@@ -75,8 +101,8 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
 // Quadrature of one increment between samples k-1 and k: the capacitance part by the trapezoid rule
 // (its noise is uncorrelated with dp), the flow part by the 4-point rule on k-2 .. k+1, which is exact for
 // cubics; the 2nd-order midpoint rule biased stiff, fast-controlled cushions (doc/equations.md).
-bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, const ParameterVector& point,
-                                          RegressionRow* row) {
+bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, double drain_weight,
+                                          const ParameterVector& point, RegressionRow* row) {
   if (node_count_ == 4) {
     for (int i = 0; i < 3; ++i) nodes_[i] = nodes_[i + 1];
     node_count_ = 3;
@@ -89,7 +115,21 @@ bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, cons
     const bool have_before = before && before->usable;
     const double v = have_before ? (s.x - before->sample.x) / dt_ : 0.0;
     const double dp = have_before ? (s.p - before->sample.p) / dt_ : 0.0;
-    model_.regressionColumns(signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, point), point, node.a, node.g);
+    HydraulicSignals signals = signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, point);
+    if (drain_weight == 0.0 || drain_weight == 1.0) {
+      signals.port_side = drain_weight == 1.0 ? 1.0 : -1.0;
+      model_.regressionColumns(signals, point, node.a, node.g);
+    } else {  // the spool near its kink: the columns of both ports, weighted
+      double a_supply[kMaxParameters], g_supply[kMaxParameters];
+      signals.port_side = 1.0;
+      model_.regressionColumns(signals, point, node.a, node.g);
+      signals.port_side = -1.0;
+      model_.regressionColumns(signals, point, a_supply, g_supply);
+      for (int j = 0; j < n_; ++j) {
+        node.a[j] = drain_weight * node.a[j] + (1.0 - drain_weight) * a_supply[j];
+        node.g[j] = drain_weight * node.g[j] + (1.0 - drain_weight) * g_supply[j];
+      }
+    }
   }
   ++node_count_;
   if (node_count_ < 4) return false;

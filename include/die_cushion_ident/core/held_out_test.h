@@ -43,6 +43,14 @@ HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors&
 HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                               const IdentificationConfig& config, int first_cycle, int last_cycle);
 
+/// The delete-a-group jackknife over press cycles: the cycles split into `groups` contiguous groups (at most
+/// one per cycle), in time order, the model refitted without each. One vector of parameter values per
+/// group; empty with fewer than 4 cycles or a refit that fails.
+std::vector<std::vector<double>> cycleJackknifeReplicates(const std::vector<GridSample>& grid,
+                                                          const StrokeSegmentation& strokes,
+                                                          const IdentificationConfig& config, std::size_t parameters,
+                                                          int groups = 10);
+
 /// Replaces the standard deviations of `estimate` (a fit on the whole recording) by a delete-a-group
 /// jackknife over press cycles: the cycles split into `groups` contiguous groups (at most one per cycle),
 /// the model refitted without each, se^2 = (G-1)/G sum_g (theta_(g) - mean)^2. Cycles are the independent

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "die_cushion_ident/core/newey_west_covariance.h"
 #include "die_cushion_ident/core/hydraulic_model.h"
 #include "die_cushion_ident/core/identification_config.h"
 #include "die_cushion_ident/core/recursive_least_squares.h"
@@ -73,7 +74,7 @@ class HydraulicIdentifier {
   std::unique_ptr<RecursiveLeastSquares> rls_;
   ParameterVector scale_;  // coefficient = normalised parameter * scale
   double flow_scale_;      // [m^3/s] divides both sides of the equation
-  double overlap_factor_;  // rows sharing data per identification step
+  NeweyWestCovariance scores_{1, 0, 1.0};  // long-run covariance of the normalised scores
   ParameterVector linearisation_point_;
   bool linearisation_frozen_ = false;
   RegressionRow row_;

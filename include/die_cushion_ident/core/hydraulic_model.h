@@ -71,7 +71,7 @@ class HydraulicModel {
                                            CovarianceMatrix* jacobian = nullptr) const;
 
  private:
-  ValvePort basePort(double y, double p) const;
+  ValvePort basePort(const HydraulicSignals& s) const;
   void rebuildInfos();
 
   CylinderGeometry geometry_;

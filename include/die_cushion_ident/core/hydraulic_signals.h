@@ -1,5 +1,7 @@
 #pragma once
 
+#include <limits>
+
 namespace die_cushion_ident {
 
 /// The named signals of the volume balance (shared/CONTRACT.md), SI units; custom effects see exactly these.
@@ -12,6 +14,10 @@ struct HydraulicSignals {
   double u = 0.0;   ///< valve command voltage [V]
   double y = 0.0;   ///< spool position, normalised [-1, 1]; > 0 drains to tank
   double V = 0.0;   ///< chamber volume V_dead + A (s - x) [m^3]
+  /// The spool position that decides which port of the valve is open; NaN: y itself. The regression sets
+  /// it from the neighbouring samples of a measured spool, whose own noise must not pick the port
+  /// (doc/equations.md, "Spool noise at the port's kink"). Not offered to custom formulas.
+  double port_side = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Cylinder and supply data that are known from the drawing, not identified.

@@ -1,5 +1,6 @@
 #pragma once
 
+#include "die_cushion_ident/core/spool_noise_estimator.h"
 #include "die_cushion_ident/core/hydraulic_model.h"
 #include "die_cushion_ident/core/identification_config.h"
 #include "die_cushion_ident/core/signal_filters.h"
@@ -37,7 +38,8 @@ class VolumeBalanceRegressor {
  private:
   HydraulicSignals signalsAt(double t, double p, double dp, double x, double v, double u, double y,
                              const ParameterVector& linearisation_point) const;
-  bool pushIntegral(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
+  bool pushIntegral(const GridSample& s, bool usable, double drain_weight, const ParameterVector& point,
+                    RegressionRow* row);
   bool pushDerivative(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
   const HydraulicModel& model_;
   RegressionForm form_;
@@ -56,6 +58,16 @@ class VolumeBalanceRegressor {
   };
   SlidingWindowSum increment_window_;
   MovingAverageFilter window_average_;
+  // The last three samples: the middle one goes on. Within 3 noise stds of the port's kink its port side is
+  // weighted 1/2 by its own spool's sign and 1/4 by each neighbour's, which cancels the bias that spool
+  // noise causes there (doc/equations.md, "Spool noise at the port's kink").
+  struct Pending {
+    GridSample sample;
+    bool usable = false;
+  };
+  Pending pending_[3];
+  SpoolNoiseEstimator spool_noise_;
+  int pending_count_ = 0;
   Node nodes_[4];
   int node_count_ = 0;
 

@@ -1,0 +1,28 @@
+#pragma once
+
+#include <memory>
+
+namespace die_cushion_ident {
+
+/// The measured spool's white noise [normalised spool], estimated on the fly from the median absolute second
+/// difference y[k+1] - 2 y[k] + y[k-1] (std sqrt(6) sigma for white noise; the median ignores the spool's
+/// own fast moves). A P-square median (Boost.Accumulators): constant memory, no forgetting.
+class SpoolNoiseEstimator {
+ public:
+  SpoolNoiseEstimator();
+  ~SpoolNoiseEstimator();
+  SpoolNoiseEstimator(SpoolNoiseEstimator&&) noexcept;
+  SpoolNoiseEstimator& operator=(SpoolNoiseEstimator&&) noexcept;
+
+  void add(double previous, double current, double next);
+  /// The noise's standard deviation; +infinity until 32 second differences are in.
+  double sigma() const;
+  long count() const { return count_; }
+
+ private:
+  struct Median;
+  std::unique_ptr<Median> median_;
+  long count_ = 0;
+};
+
+}  // namespace die_cushion_ident
