@@ -136,6 +136,7 @@ void IdentificationNode::rebuildPipeline() {
   classifier_.reset();
   window_.clear();
   ranking_.reset();
+  ++ranking_generation_;
   last_ranking_time_ = -1e18;
   residual_square_mean_ = 0.0;
   residual_samples_ = 0;
@@ -214,6 +215,7 @@ void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdenti
   const auto capacity =
       static_cast<std::size_t>(settings_.effect_ranking_window / config_.resampler.sample_period);
   while (window_.size() > capacity) window_.pop_front();
+  collectRanking();
   if (g.t - last_ranking_time_ >= settings_.effect_ranking_period || g.t < last_ranking_time_) {
     last_ranking_time_ = g.t;
     rankEffects();
@@ -304,15 +306,38 @@ void IdentificationNode::applyPendingTopicDelays() {
 }
 
 void IdentificationNode::rankEffects() {
-  const std::vector<GridSample> grid(window_.begin(), window_.end());
+  if (ranking_job_.valid()) return;  // the previous one is still running: the next period tries again
+  std::vector<GridSample> grid(window_.begin(), window_.end());
   estimateTopicDelays(grid);
-  const StrokeSegmentation strokes = segmentStrokes(grid);
-  ranking_ = die_cushion_ident::rankEffects(grid, strokes, config_);
-  // The formula search only where structured error is left, as offline without --propose.
-  if (ranking_->residual_unexplained) addFormulaProposals(grid, strokes, config_, &*ranking_);
+  ranking_job_ = std::async(std::launch::async, [grid = std::move(grid), config = config_,
+                                                 generation = ranking_generation_] {
+    const auto started = std::chrono::steady_clock::now();
+    RankingJob job;
+    job.generation = generation;
+    const StrokeSegmentation strokes = segmentStrokes(grid);
+    job.cycles = strokes.cycles;
+    job.result = die_cushion_ident::rankEffects(grid, strokes, config);
+    // The formula search only where structured error is left, as offline without --propose.
+    if (job.result.residual_unexplained) addFormulaProposals(grid, strokes, config, &job.result);
+    job.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    return job;
+  });
+}
+
+void IdentificationNode::collectRanking() {
+  if (!ranking_job_.valid() || ranking_job_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+  RankingJob job = ranking_job_.get();
+  if (job.generation != ranking_generation_) return;  // started before the pipeline was rebuilt
+  publishRanking(std::move(job));
+}
+
+void IdentificationNode::publishRanking(RankingJob job) {
+  last_ranking_seconds_ = job.seconds;
+  ROS_DEBUG("die_cushion_ident: effect ranking took %.3f s on its own thread", job.seconds);
+  ranking_ = std::move(job.result);
   die_cushion_ident::EffectRanking msg;
   msg.header.stamp = ros::Time(std::max(last_grid_.t, 0.0));
-  msg.cycles = strokes.cycles;
+  msg.cycles = job.cycles;
   for (const auto& c : ranking_->candidates) {
     msg.effects.push_back(c.effect);
     msg.error_reduction.push_back(c.error_reduction);
@@ -721,6 +746,9 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
     if (worst < 0 || phase_square_error_[i] > phase_square_error_[worst]) worst = i;
   }
   std::string where = std::string("worst in ") + strokePhaseName(static_cast<StrokePhase>(worst));
+  if (std::isfinite(last_ranking_seconds_)) {
+    status.add("effect ranking duration", formatted("%.3f s (own thread)", last_ranking_seconds_));
+  }
   if (ranking_) {
     status.add("effect ranking", ranking_->conclusion);
     for (const auto& c : ranking_->candidates) {

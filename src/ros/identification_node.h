@@ -8,6 +8,8 @@
 
 #include <atomic>
 #include <deque>
+#include <future>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -73,7 +75,20 @@ class IdentificationNode {
   bool setEffects(SetEffects::Request& request, SetEffects::Response& response);
   bool reset(Reset::Request& request, Reset::Response& response);
 
+  // The ranking (and the formula search) take up to seconds on a long window: they run on their own thread
+  // on a copy of the window, so that neither the input callbacks nor the sweep's supervision wait for them;
+  // the result is published from the first grid sample after it is ready. A rebuilt pipeline bumps the
+  // generation, and a ranking started before is dropped.
+  struct RankingJob {
+    EffectRankingResult result;
+    int cycles = 0;
+    double seconds = 0.0;  // wall-clock duration
+    int generation = 0;
+  };
+  /// Starts a ranking on the current window unless one is running; publishes a finished one.
   void rankEffects();
+  void collectRanking();
+  void publishRanking(RankingJob job);
 
   /// ROS time since the newest message of any input [s].
   double allInputsSilentFor() const;
@@ -135,6 +150,9 @@ class IdentificationNode {
   std::deque<GridSample> window_;
   double last_ranking_time_ = -1e18;
   std::optional<EffectRankingResult> ranking_;
+  std::future<RankingJob> ranking_job_;
+  int ranking_generation_ = 0;
+  double last_ranking_seconds_ = std::numeric_limits<double>::quiet_NaN();
   ros::Publisher ranking_pub_;
 
   ros::Publisher estimate_pub_, comparison_pub_, response_pub_, valve_model_pub_, command_pub_, markers_pub_;
