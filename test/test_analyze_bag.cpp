@@ -463,3 +463,18 @@ TEST_F(AnalyzeBag, GeneratedHostileBagsKeepTheContract) {
 }
 
 }  // namespace
+
+namespace {
+
+// Issue 15: the workspace lives inside the repository; rosrun searches the package with `find -L`, which
+// walked back into it and printed "File system loop detected" twice on every command.
+TEST(Rosrun, FindsTheToolsWithoutAFileSystemLoop) {
+  if (!std::getenv("ROS_PACKAGE_PATH")) GTEST_SKIP() << "not in a sourced workspace";
+  std::system(("mkdir -p " + kWork).c_str());
+  const CommandResult result = run("rosrun die_cushion_ident analyze_bag --help");
+  EXPECT_EQ(result.status, 0) << result.output;
+  EXPECT_EQ(result.output.find("File system loop"), std::string::npos) << result.output;
+  EXPECT_EQ(result.output.find("More than one"), std::string::npos) << result.output;
+}
+
+}  // namespace

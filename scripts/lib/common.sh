@@ -34,8 +34,21 @@ ensure_dependencies() {
 }
 
 build_workspace() {
+  # The package in the workspace is a directory of links to the repository's entries, not one link to the
+  # repository: the repository holds the workspace, and rosrun's `find -L` over the package would otherwise
+  # walk back into it ("File system loop detected" on every rosrun).
+  local package="$WORKSPACE/src/die_cushion_ident"
   mkdir -p "$WORKSPACE/src"
-  ln -sfn "$REPO_ROOT" "$WORKSPACE/src/die_cushion_ident"
+  if [ -L "$package" ]; then rm "$package"; fi
+  mkdir -p "$package"
+  local entry name
+  for entry in "$REPO_ROOT"/*; do
+    name="$(basename "$entry")"
+    ln -sfn "$entry" "$package/$name"
+  done
+  for entry in "$package"/*; do  # entries removed from the repository
+    if [ -L "$entry" ] && [ ! -e "$entry" ]; then rm "$entry"; fi
+  done
   log "building in $WORKSPACE"
   (cd "$WORKSPACE" && catkin_make -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
       "$@" >"$WORKSPACE/build.log" 2>&1) || { tail -n 60 "$WORKSPACE/build.log"; log "build failed (full log: $WORKSPACE/build.log)"; return 1; }
