@@ -12,6 +12,7 @@
 #include "die_cushion_ident/core/effect_library.h"
 #include "die_cushion_ident/core/formatted.h"
 #include "die_cushion_ident/core/held_out_test.h"
+#include "die_cushion_ident/core/parallel_for.h"
 
 namespace die_cushion_ident {
 
@@ -123,10 +124,11 @@ std::vector<std::string> unusedLibraryEffects(const IdentificationConfig& model)
 std::vector<Judged> judgeLibraryEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                         const IdentificationConfig& model, const HeldOutErrors& base,
                                         bool enough, const EffectRankingOptions& options) {
-  std::vector<Judged> round;
-  for (const auto& name : unusedLibraryEffects(model)) {
-    round.push_back(judgeExtension(grid, strokes, model, {name}, base, enough, options));
-  }
+  const std::vector<std::string> names = unusedLibraryEffects(model);
+  std::vector<Judged> round(names.size());
+  parallelFor(names.size(), options.jobs, [&](std::size_t i) {
+    round[i] = judgeExtension(grid, strokes, model, {names[i]}, base, enough, options);
+  });
   correctForMultipleTests(round, options);
   std::stable_sort(round.begin(), round.end(), [](const Judged& a, const Judged& b) {
     return a.candidate.error_reduction > b.candidate.error_reduction;
@@ -149,16 +151,16 @@ std::optional<std::pair<Judged, Judged>> bestMissingPair(const std::vector<GridS
     }
     return nullptr;
   };
-  std::vector<Judged> pairs;
   std::vector<std::pair<std::size_t, std::size_t>> indices;
   for (std::size_t i = 0; i < singles.size(); ++i) {
-    for (std::size_t j = i + 1; j < singles.size(); ++j) {
-      pairs.push_back(judgeExtension(grid, strokes, model,
-                                     {singles[i].candidate.effect, singles[j].candidate.effect}, base, true,
-                                     options));
-      indices.emplace_back(i, j);
-    }
+    for (std::size_t j = i + 1; j < singles.size(); ++j) indices.emplace_back(i, j);
   }
+  std::vector<Judged> pairs(indices.size());
+  parallelFor(indices.size(), options.jobs, [&](std::size_t k) {
+    const auto [i, j] = indices[k];
+    pairs[k] = judgeExtension(grid, strokes, model, {singles[i].candidate.effect, singles[j].candidate.effect},
+                              base, true, options);
+  });
   correctForMultipleTests(pairs, options);
   std::optional<Judged> best;
   const Judged* members[2] = {nullptr, nullptr};

@@ -241,7 +241,7 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
         r.warnings.push_back(doubt + ", but within 3 standard deviations of it: the recording does not pin "
                              "it down (more varied strokes would), or an effect the model lacks pulls it");
       }
-      tell("refitting without each group of cycles (jackknife)");
+      tell("fitting each group of cycles alone (does a parameter change over the recording?)");
       for (const auto& spread : parametersThatVaryOverTheRecording(grid_, r.strokes, config_, r.model)) {
         r.warnings.push_back(spread);
       }

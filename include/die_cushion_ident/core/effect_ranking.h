@@ -87,6 +87,8 @@ struct EffectRankingOptions {
   double unexplained_noise_factor = 6.0;
   /// After the first step, the staircase stops once the held-out error is below this multiple of the noise.
   double staircase_noise_factor = 4.0;
+  /// Threads for the candidates' fits and free runs, which are independent (0: one per core).
+  int jobs = 0;
   /// Cycles [0, split) and [split, cycles) are the two folds.
   int split(int cycles) const { return cycles / 2; }
 };
