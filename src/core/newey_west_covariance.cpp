@@ -18,16 +18,17 @@ void NeweyWestCovariance::reset() {
 }
 
 void NeweyWestCovariance::add(const ParameterVector& score) {
-  S_ *= lambda_ * lambda_;
-  S_.noalias() += score * score.transpose();
+  // The lagged terms sum to g m^T + m g^T with m = sum_l w_l lambda^l g_{N-l}: O(L n + n^2), not O(L n^2).
+  ParameterVector lagged = ParameterVector::Zero(score.size());
   double decay = 1.0;
   for (int l = 1; l <= stored_; ++l) {
     decay *= lambda_;
     const ParameterVector& earlier = recent_[static_cast<std::size_t>((newest_ - (l - 1) + lags_) % lags_)];
-    const double weight = (1.0 - static_cast<double>(l) / (lags_ + 1)) * decay;
-    CovarianceMatrix cross = weight * score * earlier.transpose();
-    S_ += cross + cross.transpose();
+    lagged.noalias() += ((1.0 - static_cast<double>(l) / (lags_ + 1)) * decay) * earlier;
   }
+  S_ *= lambda_ * lambda_;
+  S_.noalias() += score * (score + lagged).transpose();
+  S_.noalias() += lagged * score.transpose();
   push(score);
 }
 
