@@ -260,7 +260,9 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
              "position, velocity and spool all known above min_pressure): no simulation error");
     }
     tell("trying the library's other effects on held-out cycles");
-    r.ranking = rankEffects(grid_, r.strokes, config_);
+    EffectRankingOptions ranking_options;
+    ranking_options.jobs = jobs_;
+    r.ranking = rankEffects(grid_, r.strokes, config_, ranking_options);
     if (r.ranking.residual_unexplained || always_propose_) {
       tell("searching for a formula for the error the library leaves");
       addFormulaProposals(grid_, r.strokes, config_, &r.ranking);

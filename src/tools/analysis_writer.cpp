@@ -14,6 +14,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "die_cushion_ident/core/formatted.h"
 #include "message_conversions.h"
 
 namespace die_cushion_ident {
@@ -104,6 +105,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
 
   out << YAML::Key << "input" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "bag" << YAML::Value << input.bag;
+  out << YAML::Key << "start" << YAML::Value << formatted("%.3f", input.start);
   out << YAML::Key << "duration" << YAML::Value << input.duration;
   out << YAML::Key << "messages" << YAML::Value << r.messages;
   out << YAML::Key << "topics" << YAML::Value << YAML::BeginMap;

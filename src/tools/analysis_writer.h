@@ -12,6 +12,7 @@ struct AnalysisInput {
   std::string topics[kInputStreamCount];
   std::uint64_t messages[kInputStreamCount] = {0, 0, 0};
   double duration = 0.0;  ///< [s] of the bag
+  double start = 0.0;     ///< [s] record time of its first message (seconds since the epoch)
   std::string joint_name;  ///< configured cushion joint ("" = the only one / position[0])
 };
 

@@ -33,19 +33,22 @@ namespace {
 
 const char* kUsage =
     "usage: analyze_bag BAG --out DIR [--config FILE.yaml] [--effects a,b] [--custom-effect NAME=EXPR]... "
-    "[--propose] [--quiet]\n"
+    "[--propose] [--jobs N] [--quiet]\n"
     "  Identifies the die cushion's hydraulics and valve from a recorded bag and writes DIR/summary.yaml,\n"
     "  DIR/analysis.bag and CSV files. Library effects: leakage, entrained_air, valve_overlap, "
     "tank_pressure.\n"
     "  The config file holds the geometry (piston_area, stroke_length, supply_pressure), any setting of\n"
     "  README's configuration table, effects, custom_effects and topics: {pressure, position, valve}.\n"
     "  --propose searches formulas for the error the library leaves even when it is not structured (by\n"
-    "  default the search runs only when it is).\n";
+    "  default the search runs only when it is).\n"
+    "  --jobs N: threads for the effect ranking (default: one per core; analyze_trend runs bags side by side\n"
+    "  with one each).\n";
 
 struct Options {
   std::string bag, out, config;
   std::vector<std::string> effects, custom_effects;
   bool effects_given = false;
+  int jobs = 0;  // threads for the effect ranking; 0: one per core
   bool quiet = false;
   bool propose = false;
 };
@@ -79,6 +82,14 @@ Options parseArguments(int argc, char** argv) {
       o.quiet = true;
     } else if (a == "--propose") {
       o.propose = true;
+    } else if (a == "--jobs") {
+      const std::string text = value();
+      char* end = nullptr;
+      const long jobs = std::strtol(text.c_str(), &end, 10);
+      if (end == text.c_str() || *end != '\0' || jobs < 1 || jobs > 256) {
+        fail(2, "--jobs needs a whole number of threads in [1, 256], got '" + text + "'\n" + kUsage);
+      }
+      o.jobs = static_cast<int>(jobs);
     } else if (!a.empty() && a[0] == '-') {
       fail(2, "unknown option " + a + "\n" + kUsage);
     } else if (o.bag.empty()) {
@@ -257,6 +268,7 @@ int run(int argc, char** argv) {
   const auto started = std::chrono::steady_clock::now();
 
   auto analysis = std::make_unique<OfflineAnalysis>(config);
+  analysis->setJobs(options.jobs);
   BagPass pass = readInputs(options.bag, names, topics.joint_name, *analysis, input, log);
   if (pass.present.empty()) {
     fail(3, "none of the input topics " + names[0] + ", " + names[1] + ", " + names[2] + " is in '" + options.bag +
@@ -277,10 +289,12 @@ int run(int argc, char** argv) {
       log("position stamps " + milliseconds(delays->delays[1]) + ", valve stamps " +
           milliseconds(delays->delays[2]) + " against pressure: reading again with the stamps corrected");
       analysis = std::make_unique<OfflineAnalysis>(config);
+      analysis->setJobs(options.jobs);
       pass = readInputs(options.bag, names, topics.joint_name, *analysis, input, log);
     }
   }
   input.duration = std::isfinite(pass.last - pass.first) ? pass.last - pass.first : 0.0;
+  input.start = std::isfinite(pass.first) ? pass.first : 0.0;
   for (int s = 0; s < kInputStreamCount; ++s) {
     if (!pass.present.count(names[s])) warnings.push_back("topic " + names[s] + " is not in the bag");
   }

@@ -95,6 +95,8 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<Gr
 class OfflineAnalysis {
  public:
   explicit OfflineAnalysis(const IdentificationConfig& config);
+  /// Threads for the effect ranking's candidates (0, the default: one per core).
+  void setJobs(int jobs) { jobs_ = jobs; }
 
   void push(InputStream stream, const StreamSample& sample);
   /// Reserves the grid for a recording of about `seconds` (a hint: growth by doubling would hold up to twice
@@ -114,6 +116,7 @@ class OfflineAnalysis {
 
  private:
   IdentificationConfig config_;
+  int jobs_ = 0;
   IdentificationPipeline pipeline_;
   std::vector<GridSample> grid_;
   std::vector<ValveSample> valve_;

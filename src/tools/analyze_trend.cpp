@@ -1,0 +1,438 @@
+// Condition monitoring over many recordings (issue 14):
+//   rosrun die_cushion_ident analyze_trend BAG_OR_DIR... --out DIR [--config FILE] [--effects a,b] [--jobs N]
+//                                          [--false-alarm-rate A] [--quiet]
+// Analyses every bag with analyze_bag (side by side, one thread each), keeps each bag's summary.yaml under
+// DIR/bags/ and reuses it while the bag and the settings are unchanged, then writes DIR/trend.csv (a row per
+// recording) and DIR/trend.yaml (the changes found: doc/condition_monitoring.md).
+#include <sys/wait.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "command_line.h"
+#include "die_cushion_ident/core/formatted.h"
+#include "die_cushion_ident/core/parallel_for.h"
+#include "die_cushion_ident/core/parameter_trend.h"
+
+namespace fs = std::filesystem;
+
+namespace die_cushion_ident {
+namespace {
+
+const char* const kUsage =
+    "usage: analyze_trend BAG_OR_DIR... --out DIR [--config FILE.yaml] [--effects a,b] [--jobs N]\n"
+    "                     [--false-alarm-rate A] [--quiet]\n"
+    "  Analyses every bag (directories: every *.bag below them) with analyze_bag, N side by side (default:\n"
+    "  one per core), keeps each result in DIR/bags/ and reuses it while the bag and the settings are\n"
+    "  unchanged, and writes DIR/trend.csv (one row per recording) and DIR/trend.yaml (the changes found\n"
+    "  in the parameters and verdicts, with the recording they began in). A bag that cannot be analysed is\n"
+    "  reported and skipped. A: probability of reporting any change on a press without one, per run\n"
+    "  (default 0.01). Exit 0, 2 on bad arguments or no bag, 3 when no bag could be analysed, 4 when the\n"
+    "  results cannot be written.\n";
+
+struct Options {
+  std::vector<std::string> inputs;
+  std::string out, config;
+  std::string effects;
+  bool effects_given = false;
+  int jobs = 0;
+  double false_alarm_rate = 0.01;
+  bool quiet = false;
+};
+
+[[noreturn]] void fail(int code, const std::string& message) {
+  std::cerr << "analyze_trend: " << message;
+  std::exit(code);
+}
+
+Options parseArguments(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) fail(2, a + " needs a value\n" + kUsage);
+      return argv[++i];
+    };
+    const auto number = [&](double low, double high) {
+      const std::string text = value();
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (end == text.c_str() || *end != '\0' || !(v >= low && v <= high)) {
+        fail(2, a + " must be a number in [" + formatted("%g", low) + ", " + formatted("%g", high) + "], got '" +
+                    text + "'\n" + kUsage);
+      }
+      return v;
+    };
+    if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (a == "--out") {
+      o.out = value();
+    } else if (a == "--config") {
+      o.config = value();
+    } else if (a == "--effects") {
+      o.effects = value();
+      o.effects_given = true;
+    } else if (a == "--jobs") {
+      o.jobs = static_cast<int>(number(1, 256));
+    } else if (a == "--false-alarm-rate") {
+      o.false_alarm_rate = number(1e-9, 0.5);
+    } else if (a == "--quiet") {
+      o.quiet = true;
+    } else if (!a.empty() && a[0] == '-') {
+      fail(2, "unknown option " + a + "\n" + kUsage);
+    } else {
+      o.inputs.push_back(a);
+    }
+  }
+  if (o.inputs.empty()) fail(2, std::string("no bag or directory given\n") + kUsage);
+  if (o.out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
+  if (o.jobs == 0) o.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return o;
+}
+
+std::string shellQuoted(const std::string& text) {
+  std::string quoted = "'";
+  for (char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Every bag named or below a named directory (not inside the output directory), sorted by path.
+std::vector<std::string> collectBags(const Options& o) {
+  std::vector<std::string> bags;
+  const fs::path out = fs::weakly_canonical(o.out);
+  for (const auto& input : o.inputs) {
+    std::error_code error;
+    if (fs::is_directory(input, error)) {
+      for (auto it = fs::recursive_directory_iterator(input, fs::directory_options::skip_permission_denied, error);
+           it != fs::recursive_directory_iterator(); it.increment(error)) {
+        if (error) break;
+        const fs::path path = fs::weakly_canonical(it->path());
+        if (path.string().rfind(out.string() + "/", 0) == 0) continue;
+        if (it->is_regular_file(error) && path.extension() == ".bag") bags.push_back(path.string());
+      }
+    } else if (fs::exists(input, error)) {
+      bags.push_back(fs::weakly_canonical(input).string());
+    } else {
+      fail(2, "no such bag or directory: " + input + "\n");
+    }
+  }
+  std::sort(bags.begin(), bags.end());
+  bags.erase(std::unique(bags.begin(), bags.end()), bags.end());
+  return bags;
+}
+
+// One bag's place under DIR/bags/ and what decides whether its result can be reused.
+struct BagJob {
+  std::string bag, directory, fingerprint;
+  bool reused = false, failed = false;
+  std::string reason;  // why it was skipped
+  double seconds = 0.0;
+};
+
+std::string fingerprintOf(const std::string& bag, const Options& o, const std::string& config_text) {
+  std::error_code error;
+  const auto size = fs::file_size(bag, error);
+  const auto written = fs::last_write_time(bag, error).time_since_epoch().count();
+  std::ostringstream f;
+  f << "bag: " << bag << "\nsize: " << size << "\nmodified: " << written << "\nconfig: "
+    << std::hash<std::string>{}(config_text) << "\neffects: " << (o.effects_given ? o.effects : "(config)") << "\n";
+  return f.str();
+}
+
+std::string directoryFor(const std::string& bag, const Options& o) {
+  char hash[17];
+  std::snprintf(hash, sizeof(hash), "%016zx", std::hash<std::string>{}(bag));
+  return (fs::path(o.out) / "bags" / (fs::path(bag).stem().string() + "-" + std::string(hash, 8))).string();
+}
+
+std::string analyzeBagPath() {
+  if (const char* configured = std::getenv("DCI_ANALYZE_BAG")) return configured;
+  char self[4096];
+  const ssize_t length = readlink("/proc/self/exe", self, sizeof(self) - 1);
+  if (length > 0) {
+    self[length] = '\0';
+    return (fs::path(self).parent_path() / "analyze_bag").string();
+  }
+  return "analyze_bag";
+}
+
+void analyse(BagJob& job, const Options& o, const std::string& analyze_bag, int threads) {
+  const auto started = std::chrono::steady_clock::now();
+  fs::remove_all(job.directory);
+  fs::create_directories(job.directory);
+  std::string command = shellQuoted(analyze_bag) + " " + shellQuoted(job.bag) + " --out " +
+                        shellQuoted(job.directory) + " --quiet --jobs " + std::to_string(threads);
+  if (!o.config.empty()) command += " --config " + shellQuoted(o.config);
+  if (o.effects_given) command += " --effects " + shellQuoted(o.effects);
+  const std::string log = job.directory + "/analyze_bag.log";
+  const int status = std::system((command + " > " + shellQuoted(log) + " 2>&1").c_str());
+  job.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const bool ok = status == 0 && fs::exists(job.directory + "/summary.yaml");
+  if (!ok) {
+    job.failed = true;
+    std::string text = readFile(log);
+    while (!text.empty() && text.back() == '\n') text.pop_back();
+    const auto last_line = text.rfind('\n');
+    std::string why = last_line == std::string::npos ? text : text.substr(last_line + 1);
+    try {  // a partial result (exit 5) says in its summary what could not run, after the setup warnings
+      std::vector<std::string> said;
+      for (const auto& w : YAML::LoadFile(job.directory + "/summary.yaml")["warnings"]) {
+        const std::string text = w.as<std::string>();
+        if (text.rfind("geometry key", 0) != 0) said.push_back(text);
+      }
+      if (!said.empty()) why = said.front() + (said.size() > 1 ? " (and " + std::to_string(said.size() - 1) + " more warnings)" : "");
+    } catch (const std::exception&) {
+    }
+    job.reason = "analyze_bag failed (exit " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
+                 "): " + why;
+    std::ofstream(job.directory + "/failed.txt") << job.reason << "\n";
+  }
+  std::ofstream(job.directory + "/fingerprint.txt") << job.fingerprint;
+}
+
+struct Parameter {
+  std::string name, unit;
+  double value = 0.0, std = 0.0;
+};
+
+// One recording's row of the trend, from its summary.yaml.
+struct Recording {
+  std::string bag;
+  double start = 0.0, duration = 0.0, simulation_error_rms = 0.0;
+  std::vector<Parameter> parameters;  // the model's, then the valve's (valve_*) when a sweep was found
+  std::map<std::string, std::string> verdicts;
+  std::string conclusion;
+};
+
+Recording readRecording(const BagJob& job) {
+  const YAML::Node s = YAML::LoadFile(job.directory + "/summary.yaml");
+  Recording r;
+  r.bag = job.bag;
+  r.start = s["input"]["start"].as<double>(0.0);
+  r.duration = s["input"]["duration"].as<double>(0.0);
+  for (const auto& p : s["model"]["parameters"]) {
+    r.parameters.push_back({p["name"].as<std::string>(), p["unit"].as<std::string>(""), p["value"].as<double>(),
+                            p["std"].as<double>()});
+  }
+  r.simulation_error_rms = s["fit"]["simulation_error_rms"].as<double>(std::nan(""));
+  for (const auto& c : s["candidates"]) r.verdicts[c["effect"].as<std::string>()] = c["verdict"].as<std::string>();
+  r.conclusion = s["conclusion"].as<std::string>("");
+  const YAML::Node valve = s["valve"];
+  if (valve && valve["natural_frequency"]) {
+    const std::pair<const char*, const char*> keys[] = {
+        {"natural_frequency", "Hz"}, {"damping", "-"}, {"gain", "1/V"}, {"dead_time", "s"}};
+    for (const auto& [key, unit] : keys) {
+      r.parameters.push_back({std::string("valve_") + key, unit, valve[key].as<double>(),
+                              valve[std::string(key) + "_std"].as<double>()});
+    }
+  }
+  return r;
+}
+
+std::string csvNumber(double v) { return std::isfinite(v) ? formatted("%.9g", v) : ""; }
+
+void writeCsv(const std::string& path, const std::vector<Recording>& rows, const std::vector<std::string>& names,
+              const std::vector<std::string>& effects, const std::string& config_name) {
+  std::ofstream csv(path);
+  csv << "bag,start,start_stamp,duration,config";
+  for (const auto& n : names) csv << "," << n << "," << n << "_std";
+  csv << ",simulation_error_rms";
+  for (const auto& e : effects) csv << ",verdict_" << e;
+  csv << "\n";
+  for (const auto& r : rows) {
+    csv << '"' << r.bag << "\"," << isoTime(r.start) << "," << formatted("%.3f", r.start) << ","
+        << csvNumber(r.duration) << "," << config_name;
+    for (const auto& n : names) {
+      const auto p = std::find_if(r.parameters.begin(), r.parameters.end(), [&](const auto& q) { return q.name == n; });
+      csv << "," << (p != r.parameters.end() ? csvNumber(p->value) : "") << ","
+          << (p != r.parameters.end() ? csvNumber(p->std) : "");
+    }
+    csv << "," << csvNumber(r.simulation_error_rms);
+    for (const auto& e : effects) csv << "," << (r.verdicts.count(e) ? r.verdicts.at(e) : "");
+    csv << "\n";
+  }
+  if (!csv) fail(4, "cannot write " + path + "\n");
+}
+
+int run(int argc, char** argv) {
+  const Options o = parseArguments(argc, argv);
+  const auto log = [&](const std::string& text) {
+    if (!o.quiet) std::cerr << "analyze_trend: " << text << "\n";
+  };
+  if (!makeDirectory(o.out + "/bags")) fail(4, "cannot create " + o.out + "/bags\n");
+  const std::vector<std::string> bags = collectBags(o);
+  if (bags.empty()) fail(2, "no *.bag found in the given paths\n");
+  const std::string config_text = o.config.empty() ? "" : readFile(o.config);
+  if (!o.config.empty() && config_text.empty()) fail(2, "cannot read the config " + o.config + "\n");
+  const std::string config_name = o.config.empty() ? "default" : fs::path(o.config).stem().string();
+
+  // Which bags need analysing: a result is reused while its fingerprint (bag size and time, settings) holds.
+  std::vector<BagJob> jobs;
+  std::vector<std::size_t> pending;
+  for (const auto& bag : bags) {
+    BagJob job;
+    job.bag = bag;
+    job.directory = directoryFor(bag, o);
+    job.fingerprint = fingerprintOf(bag, o, config_text);
+    if (readFile(job.directory + "/fingerprint.txt") == job.fingerprint) {
+      job.reused = true;
+      if (fs::exists(job.directory + "/failed.txt")) {
+        job.failed = true;
+        job.reason = readFile(job.directory + "/failed.txt");
+        while (!job.reason.empty() && job.reason.back() == '\n') job.reason.pop_back();
+      } else if (!fs::exists(job.directory + "/summary.yaml")) {
+        job.reused = false;
+      }
+    }
+    if (!job.reused) pending.push_back(jobs.size());
+    jobs.push_back(std::move(job));
+  }
+  log(std::to_string(bags.size()) + " recordings: " + std::to_string(pending.size()) + " to analyse, " +
+      std::to_string(bags.size() - pending.size()) + " unchanged since the last run; " + std::to_string(o.jobs) +
+      " side by side");
+
+  const auto started = std::chrono::steady_clock::now();
+  const std::string analyze_bag = analyzeBagPath();
+  // Side by side, one thread each; a lone remaining bag gets the cores for its ranking.
+  const int threads_each = std::max(1, o.jobs / std::max<int>(1, static_cast<int>(pending.size())));
+  std::atomic<int> done{0};
+  std::mutex log_mutex;
+  parallelFor(pending.size(), o.jobs, [&](std::size_t k) {
+    BagJob& job = jobs[pending[k]];
+    analyse(job, o, analyze_bag, threads_each);
+    std::lock_guard<std::mutex> lock(log_mutex);
+    log(formatted("%.0f", ++done) + " of " + std::to_string(pending.size()) + ": " +
+        fs::path(job.bag).filename().string() + (job.failed ? " skipped: " + job.reason : formatted(" (%.1f s)", job.seconds)));
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+  std::vector<Recording> rows;
+  YAML::Emitter yaml;
+  yaml << YAML::BeginMap;
+  yaml << YAML::Key << "skipped" << YAML::Value << YAML::BeginSeq;
+  for (auto& job : jobs) {
+    if (!job.failed) {
+      try {
+        rows.push_back(readRecording(job));
+        continue;
+      } catch (const std::exception& e) {
+        job.failed = true;
+        job.reason = std::string("its summary.yaml could not be read: ") + e.what();
+      }
+    }
+    yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "bag" << YAML::Value << job.bag << YAML::Key << "reason"
+         << YAML::Value << job.reason << YAML::EndMap;
+  }
+  yaml << YAML::EndSeq;
+  std::stable_sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.start < b.start; });
+
+  std::vector<std::string> names, effects;
+  std::map<std::string, std::string> units;
+  for (const auto& r : rows) {
+    for (const auto& p : r.parameters) {
+      if (!units.count(p.name)) names.push_back(p.name);
+      units[p.name] = p.unit;
+    }
+    for (const auto& [effect, verdict] : r.verdicts) {
+      if (std::find(effects.begin(), effects.end(), effect) == effects.end()) effects.push_back(effect);
+    }
+  }
+  writeCsv(o.out + "/trend.csv", rows, names, effects, config_name);
+
+  // Changes: the run's false-alarm rate shared by every parameter tested.
+  ChangeDetectionOptions detection;
+  detection.false_alarm_rate = o.false_alarm_rate / std::max<std::size_t>(1, names.size());
+  yaml << YAML::Key << "recordings" << YAML::Value << rows.size();
+  yaml << YAML::Key << "analysed_now" << YAML::Value << pending.size();
+  yaml << YAML::Key << "false_alarm_rate" << YAML::Value << o.false_alarm_rate;
+  yaml << YAML::Key << "changes" << YAML::Value << YAML::BeginSeq;
+  int changes = 0;
+  for (const auto& name : names) {
+    std::vector<TrendPoint> series;
+    for (const auto& r : rows) {
+      for (const auto& p : r.parameters) {
+        if (p.name == name) series.push_back({r.start, p.value, p.std});
+      }
+    }
+    const auto change = detectParameterChange(series, detection);
+    if (!change) continue;
+    const std::string start = isoTime(change->start_stamp);
+    const std::string words = explainChange(name, units[name], *change, start.substr(0, 10));
+    yaml << YAML::Flow << YAML::BeginMap;
+    yaml << YAML::Key << "parameter" << YAML::Value << name << YAML::Key << "shape" << YAML::Value << change->shape;
+    yaml << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start;
+    yaml << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", change->start_stamp);
+    yaml << YAML::Key << "before" << YAML::Value << change->before << YAML::Key << "after" << YAML::Value
+         << change->after << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
+    yaml << YAML::Key << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
+    log("change: " + words);
+    ++changes;
+  }
+  // A verdict change: an effect `missing` in the last recordings (at least 2 in a row) after at least 3
+  // recordings where it was not.
+  for (const auto& effect : effects) {
+    std::vector<std::pair<double, bool>> missing;
+    for (const auto& r : rows) {
+      if (r.verdicts.count(effect)) missing.emplace_back(r.start, r.verdicts.at(effect) == "missing");
+    }
+    std::size_t first = missing.size();
+    while (first > 0 && missing[first - 1].second) --first;
+    const std::size_t run_length = missing.size() - first;
+    const bool before_clear =
+        first >= 3 && std::none_of(missing.begin(), missing.begin() + first, [](const auto& m) { return m.second; });
+    if (run_length < 2 || !before_clear) continue;
+    const std::string start = isoTime(missing[first].first);
+    const std::string words = "the effect '" + effect + "' has been missing from the model in the last " +
+                              std::to_string(run_length) + " recordings, since " + start.substr(0, 10) +
+                              ", and was not before: add it to the model (analyze_bag --effects), and see which of "
+                              "its parameters changes";
+    yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "effect" << YAML::Value << effect << YAML::Key << "verdict"
+         << YAML::Value << "missing" << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start
+         << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", missing[first].first) << YAML::Key
+         << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
+    log("change: " + words);
+    ++changes;
+  }
+  yaml << YAML::EndSeq << YAML::EndMap;
+  std::ofstream(o.out + "/trend.yaml") << "# die_cushion_ident analyze_trend (doc/condition_monitoring.md)\n"
+                                       << yaml.c_str() << "\n";
+  const std::size_t skipped = jobs.size() - rows.size();
+  log(std::to_string(rows.size()) + " recordings in the trend, " + std::to_string(skipped) + " skipped, " +
+      std::to_string(changes) + " changes; " + std::to_string(pending.size()) + " analysed in " +
+      formatted("%.1f s", seconds) + "; results in " + o.out);
+  return rows.empty() ? 3 : 0;
+}
+
+}  // namespace
+}  // namespace die_cushion_ident
+
+int main(int argc, char** argv) {
+  try {
+    return die_cushion_ident::run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "analyze_trend: " << e.what() << "\n";
+    return 3;
+  }
+}

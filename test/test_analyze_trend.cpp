@@ -1,0 +1,109 @@
+// analyze_trend end to end (issue 14): daily recordings from simulate_bag of a press whose leakage starts
+// rising on a known day, recorded alternately with the default sensors and with a position-only encoder at
+// 500 Hz (a press whose recording set-up changed); the change is found within 3 recordings of its onset
+// with the right parameter and day; a second run with one new bag analyses only that bag; a broken bag is
+// reported and skipped; bad arguments get exit 2. The long acceptance matrix (air growing, 60 stable
+// recordings, the speed-up of --jobs 2) is scripts/trend_acceptance.
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cstdlib>
+#include <string>
+
+#include "tool_runner.h"
+
+namespace {
+
+const std::string kTools = TOOL_DIR;
+const std::string kWork = "/tmp/die_cushion_ident_test_analyze_trend";
+constexpr double kFirstDay = 1772582400.0;  // 2026-03-04T00:00:00Z
+constexpr int kOnset = 8;                     // the leakage starts rising on 2026-03-12
+
+using die_cushion_ident::testing::CommandResult;
+
+CommandResult run(const std::string& command) {
+  return die_cushion_ident::testing::runCommand(command, kWork + "/last_output.txt");
+}
+
+void recordDay(int day) {
+  const double conductance = 5e-12 * (1.0 + (day >= kOnset ? 0.4 * (day - kOnset + 1) : 0.0));
+  const std::string sensors = day % 2 ? " --no-velocity --rates 1000,500,1000" : "";
+  char name[64], value[32];
+  std::snprintf(name, sizeof(name), "/bags/day%02d.bag", day);
+  std::snprintf(value, sizeof(value), "%.6g", conductance);
+  const auto r = run(kTools + "/simulate_bag " + kWork + name + " --cycles 10 --plant-effects leakage --set " +
+                     "leakage_conductance=" + value + " --seed " + std::to_string(day + 1) +
+                     " --epoch " + std::to_string(static_cast<long>(kFirstDay + 86400.0 * day)) + sensors);
+  ASSERT_EQ(r.status, 0) << r.output;
+}
+
+YAML::Node trendOf(const std::string& out) { return YAML::LoadFile(kWork + "/" + out + "/trend.yaml"); }
+
+TEST(AnalyzeTrend, FindsTheRisingLeakageWithinThreeRecordingsAndReusesResults) {
+  ASSERT_EQ(std::system(("rm -rf " + kWork + " && mkdir -p " + kWork + "/bags").c_str()), 0);
+  // Recordings up to two days after the onset: the third recording of the rise is the newest.
+  for (int day = 0; day <= kOnset + 2; ++day) recordDay(day);
+  const std::string trend = kTools + "/analyze_trend " + kWork + "/bags --out " + kWork + "/out --effects leakage";
+  auto first = run(trend + " --jobs 2");
+  ASSERT_EQ(first.status, 0) << first.output;
+  YAML::Node t = trendOf("out");
+  EXPECT_EQ(t["recordings"].as<int>(), kOnset + 3);
+  EXPECT_EQ(t["analysed_now"].as<int>(), kOnset + 3);
+  ASSERT_EQ(t["changes"].size(), 1u) << first.output;
+  const YAML::Node change = t["changes"][0];
+  EXPECT_EQ(change["parameter"].as<std::string>(), "leakage_conductance");
+  EXPECT_EQ(change["start"].as<std::string>(), "2026-03-12T00:00:00Z");
+  EXPECT_DOUBLE_EQ(change["start_stamp"].as<double>(), kFirstDay + 86400.0 * kOnset);
+  EXPECT_NEAR(change["before"].as<double>(), 5e-12, 0.3e-12);
+  EXPECT_GT(change["after"].as<double>(), 1.5 * change["before"].as<double>());
+  EXPECT_EQ(change["unit"].as<std::string>(), "m^3/(s*Pa)");
+  EXPECT_NE(change["explanation"].as<std::string>().find("seal"), std::string::npos);
+
+  // Nothing before the onset: the same directory without the rise reports no change.
+  ASSERT_EQ(std::system(("mkdir -p " + kWork + "/steady && cp " + kWork + "/bags/day0[0-7].bag " + kWork +
+                         "/steady/").c_str()), 0);
+  auto steady = run(kTools + "/analyze_trend " + kWork + "/steady --out " + kWork + "/steady_out --effects leakage");
+  ASSERT_EQ(steady.status, 0) << steady.output;
+  EXPECT_EQ(trendOf("steady_out")["changes"].size(), 0u) << steady.output;
+
+  // The next day: only the new bag is analysed; a broken bag is reported and skipped.
+  recordDay(kOnset + 3);
+  ASSERT_EQ(std::system(("head -c 100000 " + kWork + "/bags/day03.bag > " + kWork + "/bags/broken.bag").c_str()), 0);
+  auto second = run(trend);
+  ASSERT_EQ(second.status, 0) << second.output;
+  t = trendOf("out");
+  EXPECT_EQ(t["analysed_now"].as<int>(), 2) << second.output;  // the new day and the broken bag
+  EXPECT_EQ(t["recordings"].as<int>(), kOnset + 4);
+  ASSERT_EQ(t["skipped"].size(), 1u);
+  EXPECT_NE(t["skipped"][0]["bag"].as<std::string>().find("broken.bag"), std::string::npos);
+  EXPECT_NE(t["skipped"][0]["reason"].as<std::string>().find("cut off"), std::string::npos)
+      << t["skipped"][0]["reason"].as<std::string>();
+  EXPECT_NE(second.output.find("2 to analyse"), std::string::npos) << second.output;
+  // A third run finds everything unchanged (the broken bag's failure is remembered too).
+  auto third = run(trend);
+  EXPECT_EQ(trendOf("out")["analysed_now"].as<int>(), 0) << third.output;
+  // One row per recording in the CSV, with the leakage and its std.
+  const auto csv = run("(head -1 " + kWork + "/out/trend.csv && wc -l < " + kWork + "/out/trend.csv)");
+  EXPECT_NE(csv.output.find("leakage_conductance,leakage_conductance_std"), std::string::npos) << csv.output;
+  EXPECT_NE(csv.output.find("\n" + std::to_string(kOnset + 5) + "\n"), std::string::npos) << csv.output;
+}
+
+TEST(AnalyzeTrend, BadArgumentsGetExitTwoWithAReason) {
+  std::system(("mkdir -p " + kWork).c_str());
+  auto r = run(kTools + "/analyze_trend --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("no bag or directory"), std::string::npos) << r.output;
+  r = run(kTools + "/analyze_trend /nonexistent --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("no such bag"), std::string::npos) << r.output;
+  r = run(kTools + "/analyze_trend " + kWork + " --out " + kWork + "/x --jobs 0");
+  EXPECT_EQ(r.status, 2);
+  r = run(kTools + "/analyze_trend " + kWork + " --out " + kWork + "/x --false-alarm-rate 2");
+  EXPECT_EQ(r.status, 2);
+  std::system(("mkdir -p " + kWork + "/empty").c_str());
+  r = run(kTools + "/analyze_trend " + kWork + "/empty --out " + kWork + "/x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("no *.bag"), std::string::npos) << r.output;
+}
+
+}  // namespace
