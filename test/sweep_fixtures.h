@@ -4,9 +4,9 @@
 #include <optional>
 #include <vector>
 
-#include "die_cushion_ident/core/die_cushion_simulator.h"
-#include "die_cushion_ident/core/recorded_sweep.h"
-#include "die_cushion_ident/core/valve_sweep.h"
+#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
+#include "die_cushion_ident/core/valve/recorded_sweep.h"
+#include "die_cushion_ident/core/valve/valve_sweep.h"
 
 namespace die_cushion_ident {
 namespace testing {

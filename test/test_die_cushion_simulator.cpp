@@ -3,7 +3,7 @@
 #include <cmath>
 #include <map>
 
-#include "die_cushion_ident/core/die_cushion_simulator.h"
+#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 
 using namespace die_cushion_ident;
 

@@ -11,7 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "die_cushion_ident/core/effect_ranking.h"
+#include "die_cushion_ident/core/analysis/effect_ranking.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {

@@ -2,9 +2,9 @@
 
 #include <cmath>
 
-#include "die_cushion_ident/core/effect_library.h"
-#include "die_cushion_ident/core/effects/custom_flow_effect.h"
-#include "die_cushion_ident/core/hydraulic_model.h"
+#include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/model/effects/custom_flow_effect.h"
+#include "die_cushion_ident/core/model/hydraulic_model.h"
 
 using namespace die_cushion_ident;
 

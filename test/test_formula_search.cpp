@@ -8,8 +8,8 @@
 #include <cmath>
 #include <memory>
 
-#include "die_cushion_ident/core/effects/custom_flow_effect.h"
-#include "die_cushion_ident/core/formula_search.h"
+#include "die_cushion_ident/core/model/effects/custom_flow_effect.h"
+#include "die_cushion_ident/core/analysis/formula_search.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {

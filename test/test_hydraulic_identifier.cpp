@@ -5,8 +5,8 @@
 #include <cmath>
 #include <random>
 
-#include "die_cushion_ident/core/effect_library.h"
-#include "die_cushion_ident/core/hydraulic_identifier.h"
+#include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
 #include "simulation_fixtures.h"
 
 using namespace die_cushion_ident;

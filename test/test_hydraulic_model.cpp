@@ -3,7 +3,7 @@
 #include <cmath>
 #include <random>
 
-#include "die_cushion_ident/core/hydraulic_model.h"
+#include "die_cushion_ident/core/model/hydraulic_model.h"
 
 using namespace die_cushion_ident;
 

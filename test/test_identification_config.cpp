@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "die_cushion_ident/core/identification_config.h"
+#include "die_cushion_ident/core/estimation/identification_config.h"
 
 using namespace die_cushion_ident;
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <map>
 
-#include "die_cushion_ident/core/free_run_pressure.h"
-#include "die_cushion_ident/core/stroke_phase_classifier.h"
+#include "die_cushion_ident/core/analysis/free_run_pressure.h"
+#include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {

@@ -5,10 +5,10 @@
 #include <cmath>
 #include <random>
 
-#include "die_cushion_ident/core/frequency_response.h"
-#include "die_cushion_ident/core/orthogonal_correlator.h"
-#include "die_cushion_ident/core/servo_valve.h"
-#include "die_cushion_ident/core/servo_valve_fit.h"
+#include "die_cushion_ident/core/valve/frequency_response.h"
+#include "die_cushion_ident/core/valve/orthogonal_correlator.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
+#include "die_cushion_ident/core/valve/servo_valve_fit.h"
 
 namespace die_cushion_ident {
 namespace {

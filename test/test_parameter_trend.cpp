@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "die_cushion_ident/core/parameter_trend.h"
+#include "die_cushion_ident/core/analysis/parameter_trend.h"
 
 namespace die_cushion_ident {
 namespace {

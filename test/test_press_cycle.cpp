@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "die_cushion_ident/core/press_cycle.h"
+#include "die_cushion_ident/core/simulation/press_cycle.h"
 
 using namespace die_cushion_ident;
 

@@ -9,8 +9,8 @@
 #include <cstdio>
 #include <memory>
 
-#include "die_cushion_ident/core/held_out_test.h"
-#include "die_cushion_ident/core/pressure_feed_forward.h"
+#include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/control/pressure_feed_forward.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <random>
 
-#include "die_cushion_ident/core/recursive_least_squares.h"
+#include "die_cushion_ident/core/estimation/recursive_least_squares.h"
 
 using namespace die_cushion_ident;
 

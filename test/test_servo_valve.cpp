@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "die_cushion_ident/core/servo_valve.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
 
 using namespace die_cushion_ident;
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "die_cushion_ident/core/servo_valve_fit.h"
+#include "die_cushion_ident/core/valve/servo_valve_fit.h"
 
 namespace die_cushion_ident {
 namespace {

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "die_cushion_ident/core/settings_study.h"
+#include "die_cushion_ident/core/analysis/settings_study.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {

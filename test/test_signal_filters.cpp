@@ -5,8 +5,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "die_cushion_ident/core/signal_filters.h"
-#include "die_cushion_ident/core/spool_noise_estimator.h"
+#include "die_cushion_ident/core/signal/signal_filters.h"
+#include "die_cushion_ident/core/signal/spool_noise_estimator.h"
 
 using namespace die_cushion_ident;
 

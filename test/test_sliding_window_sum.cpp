@@ -3,7 +3,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "die_cushion_ident/core/sliding_window_sum.h"
+#include "die_cushion_ident/core/signal/sliding_window_sum.h"
 
 using die_cushion_ident::SlidingWindowSum;
 

@@ -8,9 +8,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "die_cushion_ident/core/offline_analysis.h"
-#include "die_cushion_ident/core/step_response.h"
-#include "die_cushion_ident/core/valve_step_test.h"
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/valve/step_response.h"
+#include "die_cushion_ident/core/valve/valve_step_test.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {

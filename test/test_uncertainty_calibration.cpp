@@ -12,8 +12,8 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "die_cushion_ident/core/held_out_test.h"
-#include "die_cushion_ident/core/offline_analysis.h"
+#include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {

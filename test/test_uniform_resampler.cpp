@@ -4,7 +4,7 @@
 #include <limits>
 #include <vector>
 
-#include "die_cushion_ident/core/uniform_resampler.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 using namespace die_cushion_ident;
 

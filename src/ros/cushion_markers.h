@@ -4,8 +4,8 @@
 
 #include <string>
 
-#include "die_cushion_ident/core/hydraulic_identifier.h"
-#include "die_cushion_ident/core/press_cycle.h"
+#include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
+#include "die_cushion_ident/core/simulation/press_cycle.h"
 
 namespace die_cushion_ident {
 

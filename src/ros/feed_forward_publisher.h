@@ -8,8 +8,8 @@
 #include <mutex>
 #include <string>
 
-#include "die_cushion_ident/core/pressure_feed_forward.h"
-#include "die_cushion_ident/core/uniform_resampler.h"
+#include "die_cushion_ident/core/control/pressure_feed_forward.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 namespace die_cushion_ident {
 

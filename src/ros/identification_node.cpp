@@ -11,8 +11,8 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
-#include "die_cushion_ident/core/formatted.h"
-#include "die_cushion_ident/core/formula_search.h"
+#include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/analysis/formula_search.h"
 #include "message_conversions.h"
 
 namespace die_cushion_ident {
@@ -739,7 +739,7 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
   status.add("equation error rms [bar/s]",
              formatted("%.1f", pipeline_->identifier().estimate().equation_error_rms * 1e-5));
   int worst = -1;
-  for (int i = 0; i < 6; ++i) {
+  for (int i = 0; i < kStrokePhaseCount; ++i) {
     status.add(
         std::string("simulation error rms in ") + strokePhaseName(static_cast<StrokePhase>(i)) + " [bar]",
         formatted("%.2f", std::sqrt(phase_square_error_[i]) * 1e-5));

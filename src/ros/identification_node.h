@@ -21,15 +21,15 @@
 #include "die_cushion_ident/StartStepTest.h"
 #include "die_cushion_ident/StartSweep.h"
 #include "die_cushion_ident/ValveSignal.h"
-#include "die_cushion_ident/core/effect_ranking.h"
-#include "die_cushion_ident/core/free_run_pressure.h"
-#include "die_cushion_ident/core/identification_pipeline.h"
-#include "die_cushion_ident/core/stroke_phase_classifier.h"
-#include "die_cushion_ident/core/topic_delay_estimator.h"
-#include "die_cushion_ident/core/step_response.h"
-#include "die_cushion_ident/core/valve_step_test.h"
-#include "die_cushion_ident/core/valve_sweep.h"
-#include "die_cushion_ident/core/velocity_from_position.h"
+#include "die_cushion_ident/core/analysis/effect_ranking.h"
+#include "die_cushion_ident/core/analysis/free_run_pressure.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
+#include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
+#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/valve/step_response.h"
+#include "die_cushion_ident/core/valve/valve_step_test.h"
+#include "die_cushion_ident/core/valve/valve_sweep.h"
+#include "die_cushion_ident/core/signal/velocity_from_position.h"
 #include "feed_forward_publisher.h"
 #include "message_conversions.h"
 #include "ros_parameters.h"
@@ -129,7 +129,7 @@ class IdentificationNode {
   double residual_square_mean_ = 0.0;  // exponentially weighted over ~5 s of free-run samples
   std::uint64_t residual_samples_ = 0;
   StrokePhase phase_ = StrokePhase::kRest;
-  double phase_square_error_[6] = {0, 0, 0, 0, 0, 0};  // per phase, same weighting
+  double phase_square_error_[kStrokePhaseCount] = {0, 0, 0, 0, 0, 0};  // per phase, same weighting
   const char* comparison_blocker_ = "";  // why the last grid sample could not be compared ("" = it could)
 
   // Latest plant signals for the sweep's safety checks: values and their stamps [s].

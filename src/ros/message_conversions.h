@@ -10,10 +10,10 @@
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
 #include "sensor_msgs/JointState.h"
-#include "die_cushion_ident/core/hydraulic_model.h"
-#include "die_cushion_ident/core/press_cycle.h"
-#include "die_cushion_ident/core/servo_valve_fit.h"
-#include "die_cushion_ident/core/uniform_resampler.h"
+#include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/simulation/press_cycle.h"
+#include "die_cushion_ident/core/valve/servo_valve_fit.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 namespace die_cushion_ident {
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/identification_config.h"
-#include "die_cushion_ident/core/valve_sweep.h"
+#include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/valve/valve_sweep.h"
 
 namespace die_cushion_ident {
 

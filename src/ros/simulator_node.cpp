@@ -18,7 +18,7 @@
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
 #include "die_cushion_ident/ValveSignal.h"
-#include "die_cushion_ident/core/die_cushion_simulator.h"
+#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 #include "message_conversions.h"
 #include "ros_parameters.h"
 

@@ -3,7 +3,7 @@
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/identification_config.h"
+#include "die_cushion_ident/core/estimation/identification_config.h"
 
 namespace die_cushion_ident {
 

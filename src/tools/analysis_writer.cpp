@@ -14,7 +14,7 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
-#include "die_cushion_ident/core/formatted.h"
+#include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
 
 namespace die_cushion_ident {

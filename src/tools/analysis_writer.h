@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "die_cushion_ident/core/offline_analysis.h"
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
 
 namespace die_cushion_ident {
 

@@ -25,7 +25,7 @@
 #include "bag_stream_reader.h"
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
-#include "die_cushion_ident/core/offline_analysis.h"
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
 #include "message_conversions.h"
 
 namespace die_cushion_ident {

@@ -24,9 +24,9 @@
 #include <vector>
 
 #include "command_line.h"
-#include "die_cushion_ident/core/formatted.h"
-#include "die_cushion_ident/core/parallel_for.h"
-#include "die_cushion_ident/core/parameter_trend.h"
+#include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/util/parallel_for.h"
+#include "die_cushion_ident/core/analysis/parameter_trend.h"
 
 namespace fs = std::filesystem;
 

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "command_line.h"
-#include "die_cushion_ident/core/die_cushion_simulator.h"
-#include "die_cushion_ident/core/identification_pipeline.h"
-#include "die_cushion_ident/core/pressure_feed_forward.h"
+#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
+#include "die_cushion_ident/core/control/pressure_feed_forward.h"
 
 using namespace die_cushion_ident;
 

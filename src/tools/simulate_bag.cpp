@@ -12,9 +12,9 @@
 
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
-#include "die_cushion_ident/core/die_cushion_simulator.h"
-#include "die_cushion_ident/core/valve_sweep.h"
-#include "die_cushion_ident/core/velocity_from_position.h"
+#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
+#include "die_cushion_ident/core/valve/valve_sweep.h"
+#include "die_cushion_ident/core/signal/velocity_from_position.h"
 
 using namespace die_cushion_ident;
 

@@ -19,7 +19,7 @@
 
 #include "analysis_config.h"
 #include "command_line.h"
-#include "die_cushion_ident/core/settings_study.h"
+#include "die_cushion_ident/core/analysis/settings_study.h"
 
 namespace die_cushion_ident {
 namespace {

@@ -6,9 +6,9 @@
 #include <random>
 #include <vector>
 
-#include "die_cushion_ident/core/identification_pipeline.h"
-#include "die_cushion_ident/core/recursive_least_squares.h"
-#include "die_cushion_ident/core/signal_filters.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
+#include "die_cushion_ident/core/estimation/recursive_least_squares.h"
+#include "die_cushion_ident/core/signal/signal_filters.h"
 #include "simulation_fixtures.h"
 
 using namespace die_cushion_ident;

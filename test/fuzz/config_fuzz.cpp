@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "analysis_config.h"
-#include "die_cushion_ident/core/identification_pipeline.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
 
 namespace die_cushion_ident {
 namespace fuzz {

@@ -5,12 +5,12 @@
 #include <limits>
 #include <vector>
 
-#include "die_cushion_ident/core/effect_library.h"
-#include "die_cushion_ident/core/identification_pipeline.h"
-#include "die_cushion_ident/core/offline_analysis.h"
-#include "die_cushion_ident/core/recorded_sweep.h"
-#include "die_cushion_ident/core/servo_valve_fit.h"
-#include "die_cushion_ident/core/valve_sweep.h"
+#include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/valve/recorded_sweep.h"
+#include "die_cushion_ident/core/valve/servo_valve_fit.h"
+#include "die_cushion_ident/core/valve/valve_sweep.h"
 
 namespace die_cushion_ident {
 namespace fuzz {

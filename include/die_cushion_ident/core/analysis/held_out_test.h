@@ -1,0 +1,63 @@
+#pragma once
+
+#include <vector>
+
+#include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
+#include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/analysis/model_assessment.h"
+
+namespace die_cushion_ident {
+
+/// Free-run pressure error of one model on press cycles it was not fitted to: fitted without forgetting
+/// on cycles [0, split), run free on [split, cycles), and the other way round. The free run starts from
+/// the measurement at each cycle.
+struct HeldOutErrors {
+  std::vector<double> cycle_rms;  ///< [Pa] per cycle id; NaN where a cycle has no held-out sample
+  double rms = 0.0;               ///< [Pa] over all held-out samples
+};
+
+HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const IdentificationConfig& config, int split);
+
+/// A model against its base on the same held-out cycles: the cycles are the independent units of a paired
+/// one-sided t test on the log ratio of their errors (a stroke holds thousands of strongly correlated
+/// samples, so a per-sample test would call every extension significant).
+struct HeldOutComparison {
+  double error_reduction = 0.0;  ///< 1 - rms(with) / rms(base)
+  double t_statistic = 0.0;      ///< < 0: the extended model is better
+  int cycles = 0;                ///< cycles paired (by cycle id)
+  /// t below the exact one-sided Student quantile at `significance` (and at least two cycles).
+  bool significant = false;
+  double p_value = 1.0;  ///< one-sided, P(T <= t) with cycles - 1 degrees of freedom
+};
+
+/// Holm's step-down correction: which of m one-sided tests are significant at family-wise level
+/// `significance` (the i-th smallest p-value against significance / (m - i)).
+std::vector<bool> holmRejected(const std::vector<double>& p_values, double significance);
+
+HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors& with, double significance);
+
+/// Fits `config`'s model to the grid samples of cycles [first_cycle, last_cycle] (all: INT_MIN, INT_MAX)
+/// without forgetting and returns the estimate. Models with valve-shape effects take a second pass,
+/// linearised at the first pass's estimate.
+HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                              const IdentificationConfig& config, int first_cycle, int last_cycle);
+
+/// The delete-a-group jackknife over press cycles: the cycles split into `groups` contiguous groups (at most
+/// one per cycle), in time order, the model refitted without each. One vector of parameter values per
+/// group; empty with fewer than 4 cycles or a refit that fails.
+std::vector<std::vector<double>> cycleJackknifeReplicates(const std::vector<GridSample>& grid,
+                                                          const StrokeSegmentation& strokes,
+                                                          const IdentificationConfig& config, std::size_t parameters,
+                                                          int groups = 10);
+
+/// Replaces the standard deviations of `estimate` (a fit on the whole recording) by a delete-a-group
+/// jackknife over press cycles: the cycles split into `groups` contiguous groups (at most one per cycle),
+/// the model refitted without each, se^2 = (G-1)/G sum_g (theta_(g) - mean)^2. Cycles are the independent
+/// units, so the correlation of the errors within a stroke and the error of the model itself are in it;
+/// the RLS covariance knows neither (its overlap factor was a guess, right only where the noise enters
+/// as assumed). False, and nothing changed, with fewer than 4 cycles or a refit that fails.
+bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups = 10);
+
+}  // namespace die_cushion_ident

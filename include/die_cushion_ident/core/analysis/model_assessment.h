@@ -1,0 +1,60 @@
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/simulation/press_cycle.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// Free-run pressure error of the samples that fall into one region of operation.
+struct RegionError {
+  std::string dimension;         ///< "phase", "pressure", "velocity" or "opening"
+  std::string label;             ///< "drawing", "100...150 bar", ...
+  double low = 0.0, high = 0.0;  ///< bin edges in SI units (phases: the phase index twice)
+  int samples = 0;
+  double rms = 0.0;            ///< [Pa] free-run error RMS
+  double mean_residual = 0.0;  ///< [Pa] measured - modelled: > 0 where the model under-predicts
+};
+
+/// Stroke phase and cycle of every grid sample: phases from StrokePhaseClassifier, a new cycle at every
+/// impact (the ram hitting the cushion). Samples before the first impact belong to cycle -1 (a recording
+/// that starts mid-stroke). A cycle is complete at the next impact, or, for the recording's last one, once
+/// the return stroke has brought the cushion back to within 5 % of its stroke from where the ram met it.
+struct StrokeSegmentation {
+  std::vector<StrokePhase> phase;
+  /// Grid index where cycle k begins (its impact), for every impact seen; cycles are contiguous stretches of
+  /// the grid, so they are stored by their starts (not a cycle number per sample: 7 MB an hour).
+  std::vector<std::size_t> cycle_start;
+  std::size_t samples = 0;  ///< grid samples segmented
+  int cycles = 0;           ///< complete cycles (indices 0 ... cycles-1)
+
+  /// Grid indices [first, second) of cycles `first` ... `last`; first < 0 reaches back to the recording's
+  /// start (samples before the first impact), last beyond the last impact to its end.
+  std::pair<std::size_t, std::size_t> range(int first, int last) const;
+  /// The cycle of grid sample i (-1 before the first impact).
+  int cycleOf(std::size_t i) const;
+};
+StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid);
+
+/// The identified model against the measurement over a recording: free run (FreeRunPressure) with the
+/// given parameters, and where it fails.
+struct ModelAssessment {
+  int samples = 0;                    ///< grid samples compared (model running free, not re-anchored)
+  double simulation_error_rms = 0.0;  ///< [Pa]
+  /// [Pa] the free run at every kModelledStride-th grid sample (0, 5, 10, ...); NaN where it is not running
+  static constexpr std::size_t kModelledStride = 5;
+  std::vector<float> modelled;
+  std::vector<RegionError> by_phase, by_pressure, by_velocity, by_opening;
+  /// The worst regions in words, e.g. "the model under-predicts the pressure during bottom_hold by 38 bar".
+  std::vector<std::string> worst_regions;
+};
+
+ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const HydraulicModel& model, const ParameterVector& parameters,
+                            double min_pressure);
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,132 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/analysis/effect_ranking.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
+#include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/valve/recorded_sweep.h"
+#include "die_cushion_ident/core/valve/step_response.h"
+#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+
+namespace die_cushion_ident {
+
+/// The online estimate at every identification step (for the time series in analysis.bag and CSV), stored
+/// flat in single precision: 100 steps per second over hours must not cost more than the grid itself
+/// (a vector pair per step was ~160 bytes; this is 8 + 4 (2n + 1)).
+class EstimateSeries {
+ public:
+  void add(const HydraulicEstimate& e);
+  /// Room for `steps` estimates of `parameters` parameters (growth by doubling would hold up to twice that).
+  void reserve(std::size_t steps, int parameters);
+  std::size_t size() const { return t_.size(); }
+  int parameters() const { return parameters_; }
+  double t(std::size_t i) const { return t_[i]; }
+  double value(std::size_t i, int j) const { return values_[i * parameters_ + j]; }
+  double std(std::size_t i, int j) const { return stds_[i * parameters_ + j]; }
+  double equationError(std::size_t i) const { return equation_error_[i]; }
+
+ private:
+  int parameters_ = 0;
+  std::vector<double> t_;
+  std::vector<float> values_, stds_, equation_error_;
+};
+
+/// Everything analyze_bag reports.
+struct OfflineResult {
+  std::uint64_t messages = 0;
+  std::uint64_t grid_samples = 0;
+  std::vector<std::string> effects;
+  /// The model fitted to the whole recording without forgetting (the best constant parameters); the
+  /// online estimate with forgetting is in `estimates`.
+  HydraulicEstimate model;
+  bool hydraulics = false;  ///< pressure and position were there to identify the hydraulics
+  StrokeSegmentation strokes;
+  ModelAssessment assessment;
+  EffectRankingResult ranking;
+  EstimateSeries estimates;
+  std::optional<RecordedSweep> valve;  ///< present when the recording holds a sine sweep
+  std::vector<StepResponse> step_responses;  ///< valve command steps at rest found in the recording
+  std::array<StreamHealth, kInputStreamCount> health;
+  std::uint64_t restarts = 0;
+  /// [s] the clock offsets subtracted from each topic's stamps, and where they came from.
+  std::array<double, kInputStreamCount> topic_delays = {0.0, 0.0, 0.0};
+  std::string topic_delays_source = "none";  ///< "configured", "estimated" or "none" (estimate not usable)
+  std::optional<TopicDelayEstimate> delay_estimate;  ///< when estimated from the data
+  std::uint64_t derived_velocity_samples = 0;       ///< grid samples whose velocity came from the position
+  std::vector<std::string> warnings;
+  /// Part of the analysis could not run (no complete stroke, no usable sample, an implausible parameter):
+  /// the reasons are in `warnings`; analyze_bag exits with 5.
+  bool partial = false;
+};
+
+/// Each parameter outside its physical range (ParameterInfo bounds) by more than `sigmas` standard
+/// deviations, in words; empty when all are plausible. Those outside but within `sigmas` of the range go to
+/// `uncertain` (may be null). A bulk modulus or flow gain at or below zero is always implausible.
+std::vector<std::string> implausibleParameters(const HydraulicModel& model, const HydraulicEstimate& estimate,
+                                               double sigmas, std::vector<std::string>* uncertain);
+
+/// Significance of the test in parametersThatVaryOverTheRecording (per parameter), and how many times their
+/// own stds the groups must disagree. A group of one cycle has a Newey-West std too small (few rows for the
+/// long-run covariance): on 60 steady random plants with 10 cycles sqrt(Q / (G-1)) had median 1.2, 99th
+/// percentile 2.4, max 3.0 (instead of about 1); a bulk modulus falling by a third halfway gives 8.4.
+constexpr double kVariationSignificance = 1e-3;
+constexpr double kVariationScatter = 4.0;
+
+/// A warning, in words, for each parameter that changes over the recording. The press cycles split into
+/// `groups` contiguous groups (at most one per cycle), each fitted alone; Cochran's Q (the groups' estimates
+/// around their weighted mean, in units of their own stds, chi-square with G-1 degrees of freedom) above
+/// its 1 - kVariationSignificance point, with sqrt(Q / (G-1)) above kVariationScatter, means they disagree
+/// more than their noise explains. Worded as a drift when a step between the first and the second half of
+/// the groups explains most of Q (the plant changed while it was recorded), else as stroke-to-stroke
+/// variation (an effect the model lacks).
+std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<GridSample>& grid,
+                                                             const StrokeSegmentation& strokes,
+                                                             const IdentificationConfig& config,
+                                                             const HydraulicEstimate& estimate, int groups = 10);
+
+/// The offline analysis on the same core as the node: messages in, the pipeline's uniform samples kept, and
+/// at the end the whole-recording fit, the free-run comparison, the effect ranking and the valve sweep.
+class OfflineAnalysis {
+ public:
+  explicit OfflineAnalysis(const IdentificationConfig& config);
+  /// Threads for the effect ranking's candidates (0, the default: one per core).
+  void setJobs(int jobs) { jobs_ = jobs; }
+
+  void push(InputStream stream, const StreamSample& sample);
+  /// Reserves the grid for a recording of about `seconds` (a hint: growth by doubling would hold up to twice
+  /// the memory an hour of grid needs). Ignored when not finite or beyond `max_seconds`.
+  void reserve(double seconds, double max_seconds);
+  /// Ends the input and estimates the topics' clock offsets from the grid (TopicDelayEstimator). A caller
+  /// that finds them significant analyses the recording again with config.topic_delays set.
+  TopicDelayEstimate estimateTopicDelays();
+  /// Searches formulas for the error the library leaves even when it is not structured (analyze_bag
+  /// --propose); by default the search runs only when it is.
+  void proposeAlways(bool always) { always_propose_ = always; }
+  /// Runs the analyses; `progress` (may be empty) is told what runs.
+  OfflineResult finish(const std::function<void(const std::string&)>& progress = {});
+
+  const std::vector<GridSample>& grid() const { return grid_; }
+  const IdentificationConfig& config() const { return config_; }
+
+ private:
+  IdentificationConfig config_;
+  int jobs_ = 0;
+  IdentificationPipeline pipeline_;
+  std::vector<GridSample> grid_;
+  std::vector<ValveSample> valve_;
+  EstimateSeries estimates_;
+  SweepCandidateFilter valve_filter_;
+  void endInput();  // flushes the pipeline once
+
+  std::uint64_t messages_ = 0;
+  bool flushed_ = false;
+  bool always_propose_ = false;
+};
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,87 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/estimation/newey_west_covariance.h"
+#include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/estimation/recursive_least_squares.h"
+#include "die_cushion_ident/core/estimation/volume_balance_regressor.h"
+
+namespace die_cushion_ident {
+
+/// A physical parameter estimate with its one-sigma uncertainty.
+struct IdentifiedParameter {
+  std::string name;
+  std::string unit;
+  double value = 0.0;
+  double std = 0.0;
+};
+
+/// Snapshot of the hydraulic identification.
+struct HydraulicEstimate {
+  double t = 0.0;  ///< time of the newest row used [s]
+  std::vector<std::string> effects;
+  std::vector<IdentifiedParameter> parameters;  ///< in HydraulicModel parameter order
+  std::uint64_t updates = 0;                    ///< RLS updates so far
+  std::uint64_t steps = 0;                      ///< identification steps (every identification_period)
+  std::uint64_t skipped_invalid = 0;            ///< steps whose window held unusable samples
+  std::uint64_t skipped_unexcited = 0;          ///< steps in the excitation dead zone
+  double equation_error_rms = 0.0;              ///< recent a-priori error of dp/dt [Pa/s]
+};
+
+/// Online identification of the pressure build-up model (the paper's method, made unbiased):
+/// uniform samples -> VolumeBalanceRegressor -> every identification_period one RLS step on the normalised
+/// coefficients. Steps whose window touches an unusable sample are skipped (model invalid there), and so
+/// are steps in the excitation dead zone (cushion at rest, pressure steady): forgetting then pauses instead
+/// of winding up the covariance. Parameters are reported in physical units with standard deviations.
+class HydraulicIdentifier {
+ public:
+  /// Throws std::invalid_argument listing every invalid configuration value.
+  explicit HydraulicIdentifier(const IdentificationConfig& config);
+
+  /// Feeds one uniform sample; returns true when an identification step was taken (updated or skipped).
+  bool push(const GridSample& sample);
+  /// Restarts estimator and filters from the initial values.
+  void reset();
+
+  HydraulicEstimate estimate() const;
+  ParameterVector physicalParameters() const;
+  const HydraulicModel& model() const { return model_; }
+  const IdentificationConfig& config() const { return config_; }
+  /// The newest regression row (valid or not) and whether the last step updated the estimator.
+  const RegressionRow& lastRow() const { return row_; }
+  bool lastStepUpdated() const { return last_step_updated_; }
+  /// RLS updates since the last (re)start (cheap; estimate() also reports it).
+  std::uint64_t updates() const { return rls_->updates(); }
+  /// Predicted dp/dt [Pa/s] of the current model for a row (for comparison with row.pressure_rate).
+  double capacitanceAt(const RegressionRow& row) const;
+  /// Linearises valve-shape effects (and the chamber volume) at `physical` from now on instead of at the
+  /// running estimate: a batch fit's second pass, whose rows must all share one linearisation point.
+  void freezeLinearisationPoint(const ParameterVector& physical);
+
+ private:
+  void refreshLinearisationPoint();
+  void refreshLinearisationPoint(ParameterVector physical);
+  bool identificationStep();
+
+  IdentificationConfig config_;
+  HydraulicModel model_;
+  std::unique_ptr<VolumeBalanceRegressor> regressor_;
+  std::unique_ptr<RecursiveLeastSquares> rls_;
+  ParameterVector scale_;  // coefficient = normalised parameter * scale
+  double flow_scale_;      // [m^3/s] divides both sides of the equation
+  NeweyWestCovariance scores_{1, 0, 1.0};  // long-run covariance of the normalised scores
+  ParameterVector linearisation_point_;
+  bool linearisation_frozen_ = false;
+  RegressionRow row_;
+  std::uint64_t rows_ = 0;
+  std::uint64_t steps_ = 0, skipped_invalid_ = 0, skipped_unexcited_ = 0;
+  double error_mean_square_ = 0.0, error_weight_ = 0.0;
+  bool last_step_updated_ = false;
+};
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,102 @@
+#pragma once
+
+#include <array>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/model/hydraulic_signals.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// How the volume balance becomes a regression (doc/equations.md).
+enum class RegressionForm {
+  /// Default. The balance's primitives (state functions and running integrals) are filtered by the moving
+  /// average and differenced over the derivative window: the filtered equation holds exactly, no smear bias.
+  kIntegral,
+  /// The paper's: pressure and position are filtered, differentiated, and the regressors formed from the
+  /// filtered signals. Biased where the pressure changes fast; kept for comparison.
+  kDerivative,
+};
+const char* regressionFormName(RegressionForm form);
+bool parseRegressionForm(const std::string& text, RegressionForm* form);
+
+/// Everything the hydraulic identification needs; the ROS layer and analyze_bag fill it from parameters/YAML.
+/// Names match the configuration keys; units SI.
+constexpr double kUnsetDelay() { return std::numeric_limits<double>::quiet_NaN(); }
+
+struct IdentificationConfig {
+  CylinderGeometry geometry;                ///< piston_area, stroke_length, supply_pressure
+  std::vector<std::string> effects;         ///< library effects in the model
+  std::vector<std::string> custom_effects;  ///< NAME=EXPR
+
+  UniformResampler::Config resampler;    ///< sample_period 0.002 s (paper), gaps, staleness
+  int moving_average_width = 31;         ///< b [samples], odd (paper: 31)
+  int derivative_width = 25;             ///< d [samples], odd (paper: 25)
+  double identification_period = 0.010;  ///< [s], multiple of sample_period (paper: 10 ms)
+  RegressionForm regression_form = RegressionForm::kIntegral;
+
+  double forgetting_factor = 0.998;  ///< lambda (paper: 0.998)
+  /// P0 = this * I for the normalised parameters (1 = the initial value): a prior std of 1000x the initial
+  /// value, so weakly excited effects (air shows only at low pressure) are not pulled towards their start.
+  double initial_covariance = 1e6;
+  /// Initial physical values by parameter name; the rest start at their nominal values. In normalised form
+  /// every parameter then starts at 1, as in the paper.
+  std::map<std::string, double> initial_parameters;
+
+  double min_pressure = 5e5;        ///< [Pa] below: near cavitation, model not trusted
+  double max_spool_opening = 0.95;  ///< [-] beyond: valve saturated
+  double min_velocity = 0.002;      ///< [m/s] excitation dead zone: below this and ...
+  double min_pressure_rate = 2e6;   ///< [Pa/s] ... below this, a window carries no information
+
+  /// Spool model used when the spool position is not measured (NaN on the valve topic).
+  ServoValveParameters valve;
+  /// [s] how long the valve amplifier holds each command; NaN (default) = one valve message interval;
+  /// 0 = the voltage was sampled from a continuous signal (no hold to divide out of a sweep's response).
+  double valve_command_hold = std::numeric_limits<double>::quiet_NaN();
+
+  /// [s] window of the least-squares differentiator that derives the velocity from the position where
+  /// the position topic carries none (VelocityFromPosition); it delays every sample by half of it. The
+  /// default (one grid sample each side: a central difference) keeps the impact sharp; a 20 ms window
+  /// smeared it and tripled the free-run error (doc/sensor_configurations.md).
+  double velocity_window = 0.004;
+  /// [s] how late each topic's stamps are against the true measurement instant (pressure, position,
+  /// valve); subtracted from the stamps. NaN = not set: analyze_bag estimates it from the data, the node
+  /// uses 0. Only differences between topics matter.
+  std::array<double, kInputStreamCount> topic_delays = {kUnsetDelay(), kUnsetDelay(), kUnsetDelay()};
+  /// [s] largest clock offset between two topics that the estimate from the data looks for.
+  double topic_delay_search = 0.05;
+
+  /// Physically plausible inputs; a message outside is rejected and counted like a NaN one.
+  double min_plausible_pressure = -2e5;  ///< [Pa] gauge: vacuum is -1 bar, plus room for sensor noise
+  /// [Pa]; NaN (default) = twice the supply pressure
+  double max_plausible_pressure = std::numeric_limits<double>::quiet_NaN();
+  double plausible_stroke_margin = 0.1;   ///< x in [-margin s, (1 + margin) s]
+  double max_plausible_velocity = 10.0;   ///< [m/s] |v|
+  double max_plausible_voltage = 100.0;   ///< [V] |u|; the spool |y| <= 1.5 (normalised to 1)
+  /// The resampler's configuration with the plausible bounds filled in from the geometry.
+  UniformResampler::Config resamplerConfig() const;
+
+  /// topic_delays with unset entries as 0.
+  std::array<double, kInputStreamCount> appliedTopicDelays() const;
+  bool topicDelaysSet() const;
+  int velocityHalfWidth() const;  ///< K of VelocityFromPosition [samples]
+
+  /// Every problem as "name = value is invalid: allowed range"; empty when the configuration is usable.
+  std::vector<std::string> validate() const;
+  int decimation() const;  ///< grid samples per identification step
+};
+
+/// Names of the numeric configuration keys (the same in YAML, ROS parameters and on command lines).
+std::vector<std::string> numericConfigKeys();
+/// A problem with a value before it is set, in words ("" if none): a filter width that is not a whole
+/// number is named as given (31.5), not as the invalid width it would become.
+std::string numericConfigProblem(const std::string& key, double value);
+/// Sets a numeric key (e.g. "forgetting_factor", "piston_area", "max_gap"); false if the key is unknown.
+/// Values are checked later by validate(), so that every problem is reported at once.
+bool setNumericConfigValue(IdentificationConfig& config, const std::string& key, double value);
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,72 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <vector>
+
+#include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
+#include "die_cushion_ident/core/signal/velocity_from_position.h"
+
+namespace die_cushion_ident {
+
+/// The per-message path of the live node and of analyze_bag: raw stream messages (stamps corrected by the
+/// topic delays) -> UniformResampler -> VelocityFromPosition -> HydraulicIdentifier. A restart of the time
+/// base (bag played again) restarts the identification too. Where the valve topic carries no spool position
+/// (NaN), the configured valve model predicts it message by message from the held command voltages, before
+/// resampling (at the valve's own rate, not the grid's). Where the position topic carries no velocity, it
+/// is derived from the positions on the grid; every sample then leaves the pipeline velocityDelay() later.
+class IdentificationPipeline {
+ public:
+  /// Called after every identification step with the identifier (estimate, last row, ...).
+  using StepCallback = std::function<void(const HydraulicIdentifier&)>;
+
+  explicit IdentificationPipeline(const IdentificationConfig& config);
+
+  UniformResampler::PushResult push(InputStream stream, const StreamSample& sample);
+  void flush();
+  void reset();
+  void setStepCallback(StepCallback callback) { on_step_ = std::move(callback); }
+  /// Called for every uniform sample, after the identifier has taken it (model comparison, phases).
+  using GridCallback = std::function<void(const GridSample&, const HydraulicIdentifier&)>;
+  void setGridCallback(GridCallback callback) { on_grid_ = std::move(callback); }
+  /// Replaces the valve model that predicts an unmeasured spool (e.g. after a sweep identified it).
+  void setValveModel(const ServoValveParameters& valve);
+  /// [s] subtracted from each stream's stamps (pressure, position, valve) from now on.
+  void setTopicDelays(const std::array<double, kInputStreamCount>& delays) { delays_ = delays; }
+  const std::array<double, kInputStreamCount>& topicDelays() const { return delays_; }
+  /// [s] latency of the velocity stage (half the differentiator window).
+  double velocityDelay() const { return velocity_.delaySamples() * sample_period_; }
+  /// Grid samples whose velocity was derived from the position.
+  std::uint64_t derivedVelocitySamples() const { return velocity_.derived(); }
+
+  const HydraulicIdentifier& identifier() const { return identifier_; }
+  HydraulicIdentifier& identifier() { return identifier_; }
+  const UniformResampler& resampler() const { return resampler_; }
+  std::uint64_t messages() const { return messages_; }
+
+ private:
+  void consume();
+  void predictSpool(StreamSample* valve);
+
+  UniformResampler resampler_;
+  VelocityFromPosition velocity_;
+  HydraulicIdentifier identifier_;
+  std::vector<GridSample> resampled_, grid_;
+  std::array<double, kInputStreamCount> delays_;
+  double sample_period_;
+  StepCallback on_step_;
+  GridCallback on_grid_;
+  std::uint64_t messages_ = 0;
+  ServoValve spool_predictor_;
+  double max_gap_;
+  double last_valve_stamp_ = -std::numeric_limits<double>::infinity();
+  double last_voltage_ = 0.0;
+  double last_measured_spool_ = 0.0;
+  bool predicting_ = false;
+};
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,84 @@
+#pragma once
+
+#include "die_cushion_ident/core/signal/spool_noise_estimator.h"
+#include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/signal/signal_filters.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// One equation of the volume balance, averaged over a window:  z = sum_j c_j phi_j + e.
+struct RegressionRow {
+  double t = 0.0;                             ///< time the row describes, the centre of its window [s]
+  double z = 0.0;                             ///< displaced flow A v [m^3/s]
+  double phi[kMaxParameters] = {};            ///< column j multiplies coefficient c_j (HydraulicModel)
+  double p = 0.0, x = 0.0, u = 0.0, y = 0.0;  ///< measured signals at t
+  double velocity = 0.0;                      ///< window-mean dx/dt [m/s]
+  double pressure_rate = 0.0;                 ///< window-mean dp/dt [Pa/s]
+  bool valid = false;                         ///< every sample under the window was usable
+};
+
+/// Turns the uniform sample stream into regression rows of the volume balance, with the paper's moving
+/// average (width b) and symmetrical derivative (width d). Both forms produce one row per sample, centred
+/// (b-1)/2 + (d-1)/2 samples in the past, with the same units, so they can be compared one to one.
+class VolumeBalanceRegressor {
+ public:
+  VolumeBalanceRegressor(const HydraulicModel& model, const IdentificationConfig& config);
+
+  /// Adds one sample (with the spool position filled in). `usable` is false for samples the model must not
+  /// see (incomplete, cavitation, saturated valve); every row whose window touches one is marked invalid.
+  /// Valve-shape effects and the chamber volume use `linearisation_point` (physical parameters).
+  /// Returns true when `row` holds a new row.
+  bool push(const GridSample& sample, bool usable, const ParameterVector& linearisation_point,
+            RegressionRow* row);
+  void clear();
+  int delaySamples() const { return delay_; }
+
+ private:
+  HydraulicSignals signalsAt(double t, double p, double dp, double x, double v, double u, double y,
+                             const ParameterVector& linearisation_point) const;
+  bool pushIntegral(const GridSample& s, bool usable, double drain_weight, const ParameterVector& point,
+                    RegressionRow* row);
+  bool pushDerivative(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
+  const HydraulicModel& model_;
+  RegressionForm form_;
+  double dt_;
+  int n_;
+  int delay_;
+  DelayLine raw_;  // t, p, x, u, y at the row's time
+
+  // Integral form: increments -> window sum over d-1 increments -> moving average over b.
+  // The last four samples with their columns, newest last, for the 4-point flow quadrature.
+  struct Node {
+    GridSample sample;
+    bool usable = false;
+    double a[kMaxParameters];
+    double g[kMaxParameters];
+  };
+  SlidingWindowSum increment_window_;
+  MovingAverageFilter window_average_;
+  // The last three samples: the middle one goes on. Within 3 noise stds of the port's kink its port side is
+  // weighted 1/2 by its own spool's sign and 1/4 by each neighbour's, which cancels the bias that spool
+  // noise causes there (doc/equations.md, "Spool noise at the port's kink").
+  struct Pending {
+    GridSample sample;
+    bool usable = false;
+  };
+  Pending pending_[3];
+  SpoolNoiseEstimator spool_noise_;
+  int pending_count_ = 0;
+  Node nodes_[4];
+  int node_count_ = 0;
+
+  // Derivative form: moving average of signals -> symmetric derivative; the rest delayed to line up.
+  MovingAverageFilter signal_average_;
+  SymmetricDerivative derivative_;
+  DelayLine aligned_;
+  SlidingWindowSum span_flags_;
+  double held_[4] = {0, 0, 0, 0};
+
+  std::vector<double> scratch_;
+};
+
+}  // namespace die_cushion_ident

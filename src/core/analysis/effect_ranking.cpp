@@ -1,0 +1,321 @@
+#include "die_cushion_ident/core/analysis/effect_ranking.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <tuple>
+#include <utility>
+
+#include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/util/parallel_for.h"
+
+namespace die_cushion_ident {
+
+namespace {
+
+// Pressure sensor noise from the grid: second differences of a smooth signal are noise (MAD, robust to
+// the fast transients at impact and release).
+double noiseRms(const std::vector<GridSample>& grid) {
+  // At most about 200 000 differences: the median is as good, and an hour's grid needs no 14 MB copy.
+  constexpr std::size_t kMostDifferences = 200000;
+  const std::size_t stride = std::max<std::size_t>(1, grid.size() / kMostDifferences);
+  std::vector<double> d;
+  d.reserve(grid.size() / stride + 1);
+  for (std::size_t i = 2; i < grid.size(); i += stride) {
+    const double v = grid[i].p - 2 * grid[i - 1].p + grid[i - 2].p;
+    if (std::isfinite(v) && !grid[i].discontinuity && !grid[i - 1].discontinuity) d.push_back(std::abs(v));
+  }
+  if (d.empty()) return 0.0;
+  auto middle = d.begin() + d.size() / 2;
+  std::nth_element(d.begin(), middle, d.end());
+  return 1.4826 * *middle / std::sqrt(6.0);
+}
+
+struct Judged {
+  CandidateEffect candidate;
+  HeldOutErrors held_out;
+  std::string physics;  // what the effects are, for explanations written after the round's correction
+};
+
+// Holm's correction over a round: a `missing` verdict whose test is not significant once corrected for
+// the number of extensions tried becomes `inconclusive` (four candidates at 5 % each would otherwise
+// raise a false alarm on 18.5 % of clean recordings).
+void correctForMultipleTests(std::vector<Judged>& round, const EffectRankingOptions& options) {
+  std::vector<double> p_values;
+  for (const auto& j : round) p_values.push_back(j.candidate.p_value);
+  const std::vector<bool> rejected = holmRejected(p_values, options.significance);
+  for (std::size_t i = 0; i < round.size(); ++i) {
+    CandidateEffect& c = round[i].candidate;
+    if (c.verdict != "missing") continue;
+    const std::string demoted = holmDemotion(c.error_reduction, c.p_value, rejected[i], round.size(), "extensions");
+    if (demoted.empty()) continue;
+    c.verdict = "inconclusive";
+    c.explanation = round[i].physics + demoted;
+  }
+}
+
+// `model` extended by the library effects `names`, judged against the held-out errors `base` of `model`.
+Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                      const IdentificationConfig& model, const std::vector<std::string>& names,
+                      const HeldOutErrors& base, bool enough, const EffectRankingOptions& options) {
+  Judged judged;
+  CandidateEffect& candidate = judged.candidate;
+  candidate.effect = names.front();
+  IdentificationConfig extended = model;
+  std::string physics, implausible;
+  std::vector<ParameterInfo> infos;
+  for (const auto& name : names) {
+    extended.effects.push_back(name);
+    const auto effect = makeLibraryEffect(name);
+    physics += (physics.empty() ? "" : "; ") + effect->explanation();
+    infos.push_back(effect->parameterFor(model.geometry));
+  }
+  // The effects' parameters fitted on all the data, in physical units.
+  const HydraulicEstimate all = fitOnCycles(grid, strokes, extended, INT_MIN, INT_MAX);
+  for (const ParameterInfo& info : infos) {
+    for (const auto& p : all.parameters) {
+      if (p.name != info.name) continue;
+      candidate.parameters.push_back(p);
+      if (!(std::isfinite(p.value) && p.value >= info.lower_bound && p.value <= info.upper_bound)) {
+        implausible += "; the fit puts " + info.name + " at " + formatted("%.3g", p.value) + " " + info.unit +
+                       ", outside its physical range: the data do not show this effect";
+      }
+    }
+  }
+  // A fit outside the physical range says "not this effect" however few cycles there are.
+  if (!enough) {
+    candidate.verdict = implausible.empty() ? "inconclusive" : "not_needed";
+    candidate.explanation = physics + (implausible.empty() ? "; too few complete press cycles (" +
+                                                                 std::to_string(strokes.cycles) +
+                                                                 ") to judge on held-out cycles"
+                                                           : implausible);
+    return judged;
+  }
+  judged.physics = physics;
+  judged.held_out = heldOutErrors(grid, strokes, extended, options.split(strokes.cycles));
+  const HeldOutComparison test = compareHeldOut(base, judged.held_out, options.significance);
+  candidate.error_reduction = test.error_reduction;
+  candidate.t_statistic = test.t_statistic;
+  candidate.p_value = test.p_value;
+  candidate.held_out_cycles = test.cycles;
+  const HeldOutVerdict verdict =
+      judgeHeldOut(test, implausible, options, names.size() > 1 ? "together they remove" : "it removes");
+  candidate.verdict = verdict.verdict;
+  candidate.explanation = physics + verdict.reason;
+  return judged;
+}
+
+std::vector<std::string> unusedLibraryEffects(const IdentificationConfig& model) {
+  std::vector<std::string> unused;
+  for (const auto& name : libraryEffectNames()) {
+    if (std::find(model.effects.begin(), model.effects.end(), name) == model.effects.end()) {
+      unused.push_back(name);
+    }
+  }
+  return unused;
+}
+
+// Every library effect that `model` does not use, judged as its extension; most explanatory first.
+std::vector<Judged> judgeLibraryEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                        const IdentificationConfig& model, const HeldOutErrors& base,
+                                        bool enough, const EffectRankingOptions& options) {
+  const std::vector<std::string> names = unusedLibraryEffects(model);
+  std::vector<Judged> round(names.size());
+  parallelFor(names.size(), options.jobs, [&](std::size_t i) {
+    round[i] = judgeExtension(grid, strokes, model, {names[i]}, base, enough, options);
+  });
+  correctForMultipleTests(round, options);
+  std::stable_sort(round.begin(), round.end(), [](const Judged& a, const Judged& b) {
+    return a.candidate.error_reduction > b.candidate.error_reduction;
+  });
+  return round;
+}
+
+// Two effects can mask each other (a leakage fitted negative to make up for a back pressure): neither is
+// missing alone, both together are. The most explanatory such pair, when there is one, as two candidates:
+// first the member that does better alone (with its own numbers), then the other with the pair's.
+std::optional<std::pair<Judged, Judged>> bestMissingPair(const std::vector<GridSample>& grid,
+                                                         const StrokeSegmentation& strokes,
+                                                         const IdentificationConfig& model,
+                                                         const HeldOutErrors& base,
+                                                         const std::vector<Judged>& singles,
+                                                         const EffectRankingOptions& options) {
+  const auto alone = [&](const std::string& name) -> const Judged* {
+    for (const auto& s : singles) {
+      if (s.candidate.effect == name) return &s;
+    }
+    return nullptr;
+  };
+  std::vector<std::pair<std::size_t, std::size_t>> indices;
+  for (std::size_t i = 0; i < singles.size(); ++i) {
+    for (std::size_t j = i + 1; j < singles.size(); ++j) indices.emplace_back(i, j);
+  }
+  std::vector<Judged> pairs(indices.size());
+  parallelFor(indices.size(), options.jobs, [&](std::size_t k) {
+    const auto [i, j] = indices[k];
+    pairs[k] = judgeExtension(grid, strokes, model, {singles[i].candidate.effect, singles[j].candidate.effect},
+                              base, true, options);
+  });
+  correctForMultipleTests(pairs, options);
+  std::optional<Judged> best;
+  const Judged* members[2] = {nullptr, nullptr};
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    Judged& pair = pairs[k];
+    if (pair.candidate.verdict != "missing") continue;
+    if (best && pair.candidate.error_reduction <= best->candidate.error_reduction) continue;
+    best = std::move(pair);
+    members[0] = alone(singles[indices[k].first].candidate.effect);
+    members[1] = alone(singles[indices[k].second].candidate.effect);
+    if (members[1]->candidate.error_reduction > members[0]->candidate.error_reduction) {
+      std::swap(members[0], members[1]);
+    }
+  }
+  if (!best) return std::nullopt;
+  Judged first = *members[0], second = *members[1];
+  first.candidate.verdict = "missing";
+  first.candidate.explanation += " (only together with '" + second.candidate.effect + "')";
+  second.candidate.verdict = "missing";
+  second.candidate.error_reduction = best->candidate.error_reduction;
+  second.candidate.t_statistic = best->candidate.t_statistic;
+  second.candidate.held_out_cycles = best->candidate.held_out_cycles;
+  second.candidate.explanation = best->candidate.explanation + " (together with '" + first.candidate.effect + "')";
+  for (const auto& p : best->candidate.parameters) {  // each member's parameter as fitted with the other
+    for (Judged* m : {&first, &second}) {
+      if (!m->candidate.parameters.empty() && m->candidate.parameters.front().name == p.name) {
+        m->candidate.parameters.front() = p;
+      }
+    }
+  }
+  second.held_out = std::move(best->held_out);
+  return std::make_pair(std::move(first), std::move(second));
+}
+
+std::string quotedList(const std::vector<EffectStep>& steps) {
+  std::string text;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    if (i > 0) text += i + 1 == steps.size() ? " and " : ", ";
+    text += "'" + steps[i].add + "'";
+  }
+  return text;
+}
+
+}  // namespace
+
+HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& implausible,
+                            const EffectRankingOptions& options, const std::string& removes) {
+  const std::string reduction = formatted("%.0f %%", 100.0 * test.error_reduction);
+  if (!implausible.empty()) return {"not_needed", implausible};
+  if (test.cycles < options.min_held_out_cycles) {
+    return {"inconclusive", "; only " + std::to_string(test.cycles) + " held-out cycles"};
+  }
+  if (test.error_reduction >= options.missing_reduction && test.significant) {
+    return {"missing", "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
+  }
+  if (test.error_reduction < options.not_needed_reduction) {
+    return {"not_needed", "; it changes the held-out error by only " + reduction};
+  }
+  return {"inconclusive", "; " + reduction + " less held-out error, but not consistently over the cycles (t = " +
+                              formatted("%.2f", test.t_statistic) + ")"};
+}
+
+std::string holmDemotion(double error_reduction, double p_value, bool rejected, std::size_t tried,
+                         const std::string& what) {
+  if (rejected) return "";
+  return "; " + formatted("%.0f %%", 100.0 * error_reduction) +
+         " less held-out error, but not significant once corrected for the " + std::to_string(tried) + " " + what +
+         " tried (Holm; one-sided p = " + formatted("%.2g", p_value) + ")";
+}
+
+double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
+  return std::max(options.unexplained_noise_factor * noise_rms, 1e5);
+}
+
+EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                const IdentificationConfig& config, const EffectRankingOptions& options) {
+  EffectRankingResult ranking;
+  ranking.noise_rms = noiseRms(grid);
+  const int cycles = strokes.cycles;
+  const int split = options.split(cycles);
+  const bool enough = split >= 1 && cycles - split >= 1 && cycles >= options.min_held_out_cycles;
+  HeldOutErrors current = enough ? heldOutErrors(grid, strokes, config, split) : HeldOutErrors();
+  ranking.base_error_rms = current.rms;
+  std::vector<Judged> round = judgeLibraryEffects(grid, strokes, config, current, enough, options);
+
+  // The staircase: add the most explanatory missing effect, judge the rest against the extended model,
+  // until nothing is missing. Effects that come together (a worn seal and air in the oil) are found in
+  // one analysis, each step verified on held-out cycles.
+  IdentificationConfig model = config;
+  std::vector<CandidateEffect> added;
+  const double floor = structuredErrorFloor(ranking.noise_rms, options);
+  const auto add = [&](Judged top, const std::string& together_with) {
+    model.effects.push_back(top.candidate.effect);
+    current = std::move(top.held_out);
+    if (!ranking.steps.empty() && together_with.empty()) {
+      top.candidate.explanation += " (after adding " + quotedList(ranking.steps) + ")";
+    }
+    ranking.steps.push_back({top.candidate.effect, current.rms, together_with});
+    added.push_back(std::move(top.candidate));
+  };
+  while (enough) {
+    // Once an effect is in, the model's own free-run floor (2-4 x the sensor noise on simulated plants
+    // with the true law) is what is left to explain; another "missing" effect there fits that floor, not
+    // physics. So the staircase stops when the error has reached the noise.
+    if (!ranking.steps.empty() && current.rms <= options.staircase_noise_factor * ranking.noise_rms) break;
+    if (!round.empty() && round.front().candidate.verdict == "missing") {
+      add(std::move(round.front()), "");
+    } else if (ranking.steps.empty() && current.rms > floor && round.size() >= 2) {
+      // Structured error left and no single effect explains it: two that mask each other might. Tried
+      // before any step only (each pair costs a candidate's fits; after a step, the formula search is
+      // the better use of the time).
+      auto pair = bestMissingPair(grid, strokes, model, current, round, options);
+      if (!pair) break;
+      const std::string first = pair->first.candidate.effect;
+      add(std::move(pair->first), "");
+      add(std::move(pair->second), first);
+    } else {
+      break;
+    }
+    round = judgeLibraryEffects(grid, strokes, model, current, enough, options);
+  }
+  ranking.candidates = std::move(added);
+  for (auto& judged : round) ranking.candidates.push_back(std::move(judged.candidate));
+  ranking.best_error_rms = current.rms;
+  ranking.recommended_held_out = current;
+  ranking.recommended_effects = model.effects;
+
+  ranking.residual_unexplained = enough && ranking.best_error_rms > floor;
+  const std::string held_out_path = [&] {
+    std::string text = formatted("%.1f", ranking.base_error_rms * 1e-5);
+    for (const auto& step : ranking.steps) text += " -> " + formatted("%.1f", step.held_out_error_rms * 1e-5);
+    return text + " bar rms on held-out cycles";
+  }();
+  if (!enough) {
+    ranking.conclusion = "Too few complete press cycles (" + std::to_string(cycles) + ", need " +
+                         std::to_string(options.min_held_out_cycles) +
+                         ") to judge effects on held-out cycles.";
+  } else if (!ranking.steps.empty() && !ranking.residual_unexplained) {
+    ranking.conclusion = ranking.steps.size() == 1
+                             ? "Add the effect " + quotedList(ranking.steps) + ": it explains the remaining error (" +
+                                   held_out_path + ")."
+                             : "Add the effects " + quotedList(ranking.steps) +
+                                   " together: they explain the remaining error (" + held_out_path + ").";
+  } else if (ranking.residual_unexplained) {
+    ranking.conclusion =
+        std::string(ranking.steps.empty() ? "The" : "Adding " + quotedList(ranking.steps) + " helps (" +
+                                                        held_out_path + "), but the") +
+        " remaining error (" + formatted("%.1f bar rms", ranking.best_error_rms * 1e-5) +
+        " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
+        ") is structured and not explained by the library's effects: describe it with a custom effect "
+        "(--custom-effect NAME=EXPR) where the model fails.";
+  } else {
+    ranking.conclusion = "The model explains the measurement to within the noise: no effect is missing.";
+  }
+  return ranking;
+}
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,203 @@
+#include "die_cushion_ident/core/analysis/model_assessment.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <limits>
+
+#include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/analysis/free_run_pressure.h"
+#include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
+
+namespace die_cushion_ident {
+
+namespace {
+
+// A recording's last cycle is complete once the cushion is back within this share of its stroke from
+// where the ram met it.
+constexpr double kTopTolerance = 0.05;
+
+struct Accumulator {
+  int n = 0;
+  double sum = 0.0, sum_squares = 0.0;
+  void add(double e) {
+    ++n;
+    sum += e;
+    sum_squares += e * e;
+  }
+};
+
+// The free-run error in bins of one signal with fixed edges, accumulated sample by sample; labels in the
+// unit users read (bar, m/s, opening).
+class RegionBins {
+ public:
+  RegionBins(const char* dimension, std::vector<double> edges, double display_scale, const char* unit)
+      : dimension_(dimension), edges_(std::move(edges)), scale_(display_scale), unit_(unit), acc_(edges_.size() - 1) {}
+
+  void add(double value, double error) {
+    if (!std::isfinite(value)) return;
+    const auto it = std::upper_bound(edges_.begin(), edges_.end(), value);
+    if (it == edges_.begin() || it == edges_.end()) return;
+    acc_[it - edges_.begin() - 1].add(error);
+  }
+
+  std::vector<RegionError> regions() const {
+    std::vector<RegionError> out;
+    for (std::size_t b = 0; b < acc_.size(); ++b) {
+      if (acc_[b].n == 0) continue;
+      RegionError r;
+      r.dimension = dimension_;
+      r.low = edges_[b];
+      r.high = edges_[b + 1];
+      r.label = formatted("%g", r.low * scale_) + "..." + formatted("%g", r.high * scale_) +
+                (unit_[0] != '\0' ? std::string(" ") + unit_ : std::string());
+      r.samples = acc_[b].n;
+      r.rms = std::sqrt(acc_[b].sum_squares / acc_[b].n);
+      r.mean_residual = acc_[b].sum / acc_[b].n;
+      out.push_back(r);
+    }
+    return out;
+  }
+
+ private:
+  const char* dimension_;
+  std::vector<double> edges_;
+  double scale_;
+  const char* unit_;
+  std::vector<Accumulator> acc_;
+};
+
+std::string where(const RegionError& r) {
+  if (r.dimension == "phase") return "during " + r.label;
+  if (r.dimension == "pressure") return "at pressures of " + r.label;
+  if (r.dimension == "velocity") return "at cushion velocities of " + r.label;
+  return "at spool openings of " + r.label;
+}
+
+}  // namespace
+
+StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
+  StrokeSegmentation s;
+  s.phase.resize(grid.size());
+  s.samples = grid.size();
+  StrokePhaseClassifier classifier;
+  int cycle = -1;
+  // A recording may start mid-stroke: drawing seen first is not an impact, only drawing after a rest of a
+  // few samples is (the classifier calls its very first sample rest, whatever the cushion does).
+  constexpr int kMinRestSamples = 5;
+  StrokePhase previous = StrokePhase::kRest;
+  int rest_samples = 0;
+  // The last cycle counts when it is complete: the cushion went back up to where the ram met it.
+  bool returned = false;
+  double impact_x = 0.0, deepest = 0.0, last_x = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    if (grid[i].discontinuity) {
+      classifier.reset();
+      rest_samples = 0;
+    }
+    const StrokePhase phase = classifier.classify(grid[i]);
+    const bool after_rest = previous == StrokePhase::kRest && rest_samples >= kMinRestSamples;
+    const bool impact = phase == StrokePhase::kImpact || (phase == StrokePhase::kDrawing && after_rest);
+    rest_samples = phase == StrokePhase::kRest ? rest_samples + 1 : 0;
+    if (impact && previous != StrokePhase::kImpact && previous != StrokePhase::kDrawing) {
+      ++cycle;
+      s.cycle_start.push_back(i);
+      returned = false;
+      impact_x = deepest = std::isfinite(grid[i].x) ? grid[i].x : 0.0;
+    }
+    if (phase == StrokePhase::kReturn) returned = true;
+    if (std::isfinite(grid[i].x)) {
+      last_x = grid[i].x;
+      deepest = std::max(deepest, last_x);
+    }
+    s.phase[i] = phase;
+    previous = phase;
+  }
+  const double stroke = deepest - impact_x;
+  const bool last_complete = cycle >= 0 && returned && stroke > 0.0 &&
+                             last_x - impact_x <= kTopTolerance * stroke;
+  s.cycles = std::max(last_complete ? cycle + 1 : cycle, 0);
+  return s;
+}
+
+std::pair<std::size_t, std::size_t> StrokeSegmentation::range(int first, int last) const {
+  const int impacts = static_cast<int>(cycle_start.size());
+  const std::size_t begin = first <= -1 ? 0 : first >= impacts ? samples : cycle_start[first];
+  const std::size_t end = last < -1 ? 0 : last == -1 ? (impacts > 0 ? cycle_start[0] : samples)
+                          : last >= impacts - 1 ? samples
+                                                : cycle_start[static_cast<std::size_t>(last) + 1];
+  return {begin, std::max(begin, end)};
+}
+
+int StrokeSegmentation::cycleOf(std::size_t i) const {
+  return static_cast<int>(std::upper_bound(cycle_start.begin(), cycle_start.end(), i) - cycle_start.begin()) - 1;
+}
+
+ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const HydraulicModel& model, const ParameterVector& parameters,
+                            double min_pressure) {
+  ModelAssessment a;
+  // The statistics are accumulated sample by sample; only every kModelledStride-th free-run value is kept
+  // (the comparison series that is written), so that an hour's assessment does not hold 1.8 M values.
+  a.modelled.reserve(grid.size() / ModelAssessment::kModelledStride + 1);
+  RegionBins pressure("pressure", {-1e5, 20e5, 50e5, 100e5, 150e5, 200e5, 400e5, 2000e5}, 1e-5, "bar");
+  RegionBins velocity("velocity", {-10, -0.1, -0.02, -0.002, 0.002, 0.02, 0.1, 10}, 1.0, "m/s");
+  RegionBins opening("opening", {-1.0, -0.5, -0.2, -0.05, 0.0, 0.05, 0.2, 0.5, 1.0 + 1e-9}, 1.0, "");
+  FreeRunPressure free_run(model, min_pressure);
+  Accumulator all, phase[kStrokePhaseCount];
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    const double p = free_run.step(grid[i], parameters);
+    const bool compared = std::isfinite(p) && !free_run.anchoredThisStep() && std::isfinite(grid[i].p);
+    if (i % ModelAssessment::kModelledStride == 0)
+      a.modelled.push_back(compared ? static_cast<float>(p) : std::numeric_limits<float>::quiet_NaN());
+    if (!compared) continue;
+    const GridSample& g = grid[i];
+    const double e = g.p - p;
+    all.add(e);
+    phase[static_cast<int>(strokes.phase[i])].add(e);
+    pressure.add(g.p, e);
+    velocity.add(g.v, e);
+    opening.add(g.y, e);
+  }
+  a.samples = all.n;
+  a.simulation_error_rms = all.n > 0 ? std::sqrt(all.sum_squares / all.n) : 0.0;
+  for (int k = 0; k < kStrokePhaseCount; ++k) {
+    if (phase[k].n == 0) continue;
+    RegionError r;
+    r.dimension = "phase";
+    r.label = strokePhaseName(static_cast<StrokePhase>(k));
+    r.low = r.high = k;
+    r.samples = phase[k].n;
+    r.rms = std::sqrt(phase[k].sum_squares / phase[k].n);
+    r.mean_residual = phase[k].sum / phase[k].n;
+    a.by_phase.push_back(r);
+  }
+  a.by_pressure = pressure.regions();
+  a.by_velocity = velocity.regions();
+  a.by_opening = opening.regions();
+
+  // The worst regions with at least 1 % of the samples, worst first, each dimension once.
+  std::vector<const RegionError*> regions;
+  for (const auto* list : {&a.by_phase, &a.by_pressure, &a.by_velocity, &a.by_opening}) {
+    const RegionError* worst = nullptr;
+    for (const auto& r : *list) {
+      if (r.samples >= 0.01 * a.samples && (!worst || r.rms > worst->rms)) worst = &r;
+    }
+    if (worst) regions.push_back(worst);
+  }
+  std::sort(regions.begin(), regions.end(), [](const auto* x, const auto* y) { return x->rms > y->rms; });
+  for (const auto* r : regions) {
+    const bool biased = std::abs(r->mean_residual) > 0.5 * r->rms;
+    std::string sentence = biased ? std::string("the model ") + (r->mean_residual > 0 ? "under" : "over") +
+                                        "-predicts the pressure " + where(*r) + " by " +
+                                        formatted("%.1f bar", std::abs(r->mean_residual) * 1e-5) +
+                                        " on average" + " (" + formatted("%.1f bar rms", r->rms * 1e-5) + ")"
+                                  : "the model misses the pressure " + where(*r) + " by " +
+                                        formatted("%.1f bar rms", r->rms * 1e-5) + ", in both directions";
+    a.worst_regions.push_back(sentence);
+  }
+  return a;
+}
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,306 @@
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
+
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include <boost/math/distributions/chi_squared.hpp>
+
+#include "die_cushion_ident/core/analysis/formula_search.h"
+#include "die_cushion_ident/core/analysis/held_out_test.h"
+
+namespace die_cushion_ident {
+
+std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<GridSample>& grid,
+                                                             const StrokeSegmentation& strokes,
+                                                             const IdentificationConfig& config,
+                                                             const HydraulicEstimate& estimate, int groups) {
+  std::vector<std::string> found;
+  const std::size_t n = estimate.parameters.size();
+  const int g_count = std::min(groups, strokes.cycles);
+  if (g_count < 4 || n == 0) return found;
+  std::vector<HydraulicEstimate> fits;
+  for (int g = 0; g < g_count; ++g) {
+    const int first = g * strokes.cycles / g_count, last = (g + 1) * strokes.cycles / g_count - 1;
+    fits.push_back(fitOnCycles(grid, strokes, config, first, last));
+    if (fits.back().updates == 0 || fits.back().parameters.size() != n) return found;
+  }
+  const boost::math::chi_squared_distribution<double> chi_square(g_count - 1);
+  for (std::size_t k = 0; k < n; ++k) {
+    const IdentifiedParameter& p = estimate.parameters[k];
+    // Cochran's Q: the groups' own estimates around their weighted mean, in units of their own stds.
+    double weights = 0.0, weighted = 0.0;
+    for (const auto& f : fits) {
+      const double w = 1.0 / (f.parameters[k].std * f.parameters[k].std);
+      weights += w;
+      weighted += w * f.parameters[k].value;
+    }
+    const double mean = weighted / weights;
+    double q = 0.0;
+    for (const auto& f : fits) q += std::pow((f.parameters[k].value - mean) / f.parameters[k].std, 2);
+    if (!std::isfinite(q)) continue;
+    const double p_value = boost::math::cdf(boost::math::complement(chi_square, q));
+    const double scatter = std::sqrt(q / (g_count - 1.0));  // how many times their noise the groups disagree
+    if (!(p_value < kVariationSignificance) || !(scatter > kVariationScatter)) continue;
+    // Drift or scatter: the first half of the groups against the second, each a weighted mean.
+    double halves[2] = {0.0, 0.0}, half_weights[2] = {0.0, 0.0};
+    for (int g = 0; g < g_count; ++g) {
+      const int h = 2 * g < g_count ? 0 : 1;
+      const double w = 1.0 / std::pow(fits[g].parameters[k].std, 2);
+      half_weights[h] += w;
+      halves[h] += w * fits[g].parameters[k].value;
+    }
+    const double before = halves[0] / half_weights[0], after = halves[1] / half_weights[1];
+    // The part of Q that one step between the halves explains.
+    const double q_between = std::pow(after - before, 2) / (1.0 / half_weights[0] + 1.0 / half_weights[1]);
+    char text[600];
+    if (q_between > 0.5 * q) {
+      std::snprintf(text, sizeof(text),
+                    "%s drifts over the recording: %.3g %s in the first half of the press cycles, %.3g in the "
+                    "second (%d groups of cycles fitted alone disagree %.1f times more than their stds say, "
+                    "p = %.2g): the plant changed while it was recorded (air drawn in, the oil warming, a seal "
+                    "wearing) or an effect the model lacks grows with time; %.3g is an average",
+                    p.name.c_str(), before, p.unit.c_str(), after, g_count, scatter, p_value, p.value);
+    } else {
+      std::snprintf(text, sizeof(text),
+                    "%s varies from stroke to stroke: %d groups of press cycles fitted alone disagree %.1f "
+                    "times more than their stds say (p = %.2g), without a drift: the model misses an effect "
+                    "that weighs differently from stroke to stroke; treat the std of %.3g %s as %.2g",
+                    p.name.c_str(), g_count, scatter, p_value, p.value, p.unit.c_str(), scatter * p.std);
+    }
+    found.push_back(text);
+  }
+  return found;
+}
+
+OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
+  pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) { grid_.push_back(g); });
+  pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
+}
+
+void EstimateSeries::reserve(std::size_t steps, int parameters) {
+  t_.reserve(steps);
+  values_.reserve(steps * static_cast<std::size_t>(parameters));
+  stds_.reserve(steps * static_cast<std::size_t>(parameters));
+  equation_error_.reserve(steps);
+}
+
+void EstimateSeries::add(const HydraulicEstimate& e) {
+  parameters_ = static_cast<int>(e.parameters.size());
+  t_.push_back(e.t);
+  for (const auto& p : e.parameters) {
+    values_.push_back(static_cast<float>(p.value));
+    stds_.push_back(static_cast<float>(p.std));
+  }
+  equation_error_.push_back(static_cast<float>(e.equation_error_rms));
+}
+
+void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
+  ++messages_;
+  pipeline_.push(stream, sample);
+  // The sweep analysis wants the raw valve signal, not the 2 ms grid (sweeps reach 160 Hz), but only where
+  // the command can be a sweep: hours of press strokes are not kept.
+  if (stream == InputStream::kValve && std::isfinite(sample.stamp) && std::isfinite(sample.first)) {
+    valve_filter_.push({sample.stamp, sample.first, sample.second}, &valve_);
+  }
+}
+
+std::vector<std::string> implausibleParameters(const HydraulicModel& model, const HydraulicEstimate& estimate,
+                                               double sigmas, std::vector<std::string>* uncertain) {
+  std::vector<std::string> problems;
+  const auto& infos = model.parameterInfos();
+  for (std::size_t i = 0; i < infos.size() && i < estimate.parameters.size(); ++i) {
+    const double value = estimate.parameters[i].value, std = estimate.parameters[i].std;
+    const bool positive_required = i == HydraulicModel::kBulkModulus || i == HydraulicModel::kValveFlowGain;
+    const double low = infos[i].lower_bound, high = infos[i].upper_bound;
+    if (std::isfinite(value) && value >= low && value <= high && !(positive_required && value <= 0.0)) continue;
+    char text[256];
+    std::snprintf(text, sizeof(text), "%s = %.4g +/- %.2g %s is outside its physical range [%.3g, %.3g]",
+                  infos[i].name.c_str(), value, std, infos[i].unit.c_str(), low, high);
+    // Outside, but within its uncertainty of the range: the data do not pin it down, which is no fault.
+    const double distance = value < low ? low - value : value - high;
+    const bool consistent = std::isfinite(value) && std::isfinite(std) && distance <= sigmas * std &&
+                            !(positive_required && value <= 0.0);
+    if (consistent) {
+      if (uncertain) uncertain->push_back(text);
+    } else {
+      problems.push_back(text);
+    }
+  }
+  return problems;
+}
+
+void OfflineAnalysis::reserve(double seconds, double max_seconds) {
+  if (!(seconds > 0.0) || !(seconds <= max_seconds)) return;
+  grid_.reserve(static_cast<std::size_t>(1.01 * seconds / config_.resampler.sample_period) + 1000);
+  estimates_.reserve(static_cast<std::size_t>(1.01 * seconds / config_.identification_period) + 100,
+                     pipeline_.identifier().model().parameterCount());
+}
+
+void OfflineAnalysis::endInput() {
+  if (!flushed_) pipeline_.flush();
+  flushed_ = true;
+}
+
+TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
+  endInput();
+  return die_cushion_ident::estimateTopicDelays(grid_, config_);
+}
+
+OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string&)>& progress) {
+  const auto tell = [&](const std::string& what) {
+    if (progress) progress(what);
+  };
+  endInput();
+  OfflineResult r;
+  r.topic_delays = config_.appliedTopicDelays();
+  r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
+  r.derived_velocity_samples = pipeline_.derivedVelocitySamples();
+  r.messages = messages_;
+  r.grid_samples = grid_.size();
+  for (int s = 0; s < kInputStreamCount; ++s)
+    r.health[s] = pipeline_.resampler().health(static_cast<InputStream>(s));
+  r.restarts = pipeline_.resampler().restarts();
+  r.estimates = std::move(estimates_);
+  const HydraulicModel model =
+      HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
+  r.effects = model.effectNames();
+
+  const auto& bounds = config_.resamplerConfig().plausible;
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    const StreamHealth& h = r.health[s];
+    const char* name = inputStreamName(static_cast<InputStream>(s));
+    if (h.implausible > 0) {
+      char text[320];
+      std::snprintf(text, sizeof(text),
+                    "%llu %s messages outside the physically plausible range [%.4g, %.4g]%s were rejected like "
+                    "non-finite ones (see the *_plausible_* configuration keys)",
+                    static_cast<unsigned long long>(h.implausible), name, bounds[s].min_first, bounds[s].max_first,
+                    s == 0 ? "" : s == 1 ? " (or |velocity| above max_plausible_velocity)" : " (or |spool| > 1.5)");
+      r.warnings.push_back(text);
+    }
+    if (h.wild_stamps > 0) {
+      char text[256];
+      std::snprintf(text, sizeof(text),
+                    "%llu %s messages had stamps far off the other topics' (the last %+.4g s) and were rejected",
+                    static_cast<unsigned long long>(h.wild_stamps), name, h.last_wild_offset);
+      r.warnings.push_back(text);
+    }
+  }
+  // Every reason a part of the analysis could not run, in words and with what to do.
+  const auto cannot = [&r](const std::string& why) {
+    r.warnings.push_back(why);
+    r.partial = true;
+  };
+  const bool valve_stream = r.health[2].accepted > 0;
+  r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0 && valve_stream;
+  std::uint64_t complete = 0, with_velocity = 0;
+  double highest = -std::numeric_limits<double>::infinity();  // pressure, for a hint about its unit
+  for (const GridSample& g : grid_) {
+    complete += g.complete ? 1 : 0;
+    with_velocity += g.complete && std::isfinite(g.v) ? 1 : 0;
+    if (std::isfinite(g.p)) highest = std::max(highest, static_cast<double>(g.p));
+  }
+  if (!r.hydraulics) {
+    cannot(std::string("the ") + (r.health[0].accepted == 0 ? "pressure" : r.health[1].accepted == 0 ? "position" : "valve") +
+           " topic gave no usable message: the hydraulics were not identified (check the topic names in the "
+           "config's topics: and the warnings above)");
+  } else if (complete == 0) {
+    cannot("pressure, position and valve never overlap in time (no sample has all three): the hydraulics "
+           "were not identified; check the stamps (topics stamped by different clocks far apart?)");
+    r.hydraulics = false;
+  }
+  if (r.hydraulics) {
+    if (with_velocity == 0) {
+      cannot("no velocity: the position topic carries none and none could be derived from the positions; "
+             "the model comparison and the effect ranking could not run");
+    }
+    tell("segmenting the strokes");
+    r.strokes = segmentStrokes(grid_);
+    tell("fitting the model to the whole recording");
+    r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
+    if (r.model.updates == 0 && highest < config_.min_pressure) {
+      char text[320];
+      std::snprintf(text, sizeof(text),
+                    "the pressure never exceeds min_pressure (%.3g Pa; highest %.4g): no parameters identified. "
+                    "Is it recorded in bar or psi? FluidPressure.fluid_pressure is in Pa",
+                    config_.min_pressure, highest);
+      cannot(text);
+    } else if (r.model.updates == 0) {
+      cannot("the recording never excites the hydraulics (no press stroke with the pressure above "
+             "min_pressure): no parameters identified");
+    } else {
+      std::vector<std::string> uncertain;
+      for (const auto& problem : implausibleParameters(model, r.model, 3.0, &uncertain)) {
+        cannot("implausible estimate: " + problem +
+               "; the model does not describe this recording (wrong joint, units or topic, or a large "
+               "clock offset between the topics); the comparison below is not a valid model check");
+      }
+      for (const auto& doubt : uncertain) {
+        r.warnings.push_back(doubt + ", but within 3 standard deviations of it: the recording does not pin "
+                             "it down (more varied strokes would), or an effect the model lacks pulls it");
+      }
+      tell("fitting each group of cycles alone (does a parameter change over the recording?)");
+      for (const auto& spread : parametersThatVaryOverTheRecording(grid_, r.strokes, config_, r.model)) {
+        r.warnings.push_back(spread);
+      }
+    }
+  }
+  if (r.hydraulics && r.model.updates == 0) {
+    // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
+    r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
+  } else if (r.hydraulics) {
+    ParameterVector theta(model.parameterCount());
+    for (int i = 0; i < model.parameterCount(); ++i) theta(i) = r.model.parameters[i].value;
+    tell("running the model free against the measurement");
+    r.assessment = assessModel(grid_, r.strokes, model, theta, config_.min_pressure);
+    if (r.assessment.samples == 0) {
+      cannot("the identified model could not be run against the measurement (no sample with pressure, "
+             "position, velocity and spool all known above min_pressure): no simulation error");
+    }
+    tell("trying the library's other effects on held-out cycles");
+    EffectRankingOptions ranking_options;
+    ranking_options.jobs = jobs_;
+    r.ranking = rankEffects(grid_, r.strokes, config_, ranking_options);
+    if (r.ranking.residual_unexplained || always_propose_) {
+      tell("searching for a formula for the error the library leaves");
+      addFormulaProposals(grid_, r.strokes, config_, &r.ranking);
+    }
+    if (r.strokes.cycles == 0) {
+      cannot("no complete press stroke (impact, drawing, return to the top) in the recording: the effect "
+             "ranking could not run; record at least three complete strokes");
+    } else if (r.strokes.cycles < EffectRankingOptions().min_held_out_cycles) {
+      cannot("only " + std::to_string(r.strokes.cycles) + " complete press stroke(s): the effect ranking "
+             "needs " + std::to_string(EffectRankingOptions().min_held_out_cycles) +
+             " to judge on held-out strokes; every verdict is inconclusive (or not_needed where the fit is outside "
+             "the physical range)");
+    }
+  }
+
+  tell("looking for valve command steps at rest");
+  r.step_responses = findStepResponses(grid_);
+  if (!r.step_responses.empty()) {
+    const StepResponse& step = r.step_responses.front();
+    if (config_.resampler.sample_period > step.recommendedMaxSamplingTime()) {
+      char text[300];
+      std::snprintf(text, sizeof(text),
+                    "the sampling time (sample_period %.4g s) exceeds a tenth of the pressure's t63 (%.4g s "
+                    "from the step test at %.3f s): the identification cannot resolve the pressure build-up; "
+                    "set sample_period to at most %.4g s",
+                    config_.resampler.sample_period, step.t63, step.start, step.recommendedMaxSamplingTime());
+      r.warnings.push_back(text);
+    }
+  }
+  valve_filter_.flush(&valve_);
+  if (!valve_.empty()) {
+    tell("looking for valve sine sweeps");
+    RecordedSweepOptions options;
+    options.command_hold = config_.valve_command_hold;  // NaN: one valve message interval
+    RecordedSweep sweep = analyzeRecordedSweep(valve_, options);
+    if (!sweep.segments.empty()) r.valve = std::move(sweep);
+  }
+  return r;
+}
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,191 @@
+#include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace die_cushion_ident {
+
+namespace {
+IdentificationConfig checked(const IdentificationConfig& config) {
+  const auto errors = config.validate();
+  if (!errors.empty()) {
+    std::string all = "invalid identification configuration:";
+    for (const auto& e : errors) all += "\n  " + e;
+    throw std::invalid_argument(all);
+  }
+  return config;
+}
+}  // namespace
+
+HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
+    : config_(checked(config)),
+      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)) {
+  const int n = model_.parameterCount();
+  ParameterVector initial = model_.nominalParameters();
+  for (const auto& [name, value] : config_.initial_parameters) {
+    for (int i = 0; i < n; ++i) {
+      if (model_.parameterInfos()[i].name == name) initial(i) = value;
+    }
+  }
+  // Scale each coefficient by its initial value so that every normalised parameter starts at 1 (the paper's
+  // start) and the regression is well conditioned; a zero start falls back to the nominal magnitude.
+  const ParameterVector c0 = model_.coefficientsFromPhysical(initial);
+  const ParameterVector c_nominal = model_.coefficientsFromPhysical(model_.nominalParameters());
+  scale_.resize(n);
+  ParameterVector theta0(n);
+  for (int j = 0; j < n; ++j) {
+    scale_(j) = std::abs(c0(j)) > 0.0 ? std::abs(c0(j)) : std::abs(c_nominal(j));
+    if (!(scale_(j) > 0.0)) scale_(j) = 1.0;
+    theta0(j) = c0(j) / scale_(j);
+  }
+  flow_scale_ = config_.geometry.piston_area * 0.1;  // the flow of a 0.1 m/s stroke
+  const CovarianceMatrix P0 = CovarianceMatrix::Identity(n, n) * config_.initial_covariance;
+  RecursiveLeastSquares::Options options;
+  options.forgetting_factor = config_.forgetting_factor;
+  rls_ = std::make_unique<RecursiveLeastSquares>(theta0, P0, options);
+  regressor_ = std::make_unique<VolumeBalanceRegressor>(model_, config_);
+  // Successive rows share (b + d - 1) samples, so errors of rows up to that many identification steps apart
+  // are correlated. The RLS covariance assumes independent errors; the stds use the Newey-West long-run
+  // covariance of the scores instead, over twice that span (doc/equations.md, "Uncertainty").
+  const int overlapping_steps = static_cast<int>(
+      std::ceil(static_cast<double>(config_.moving_average_width + config_.derivative_width - 1) /
+                config_.decimation()));
+  scores_ = NeweyWestCovariance(n, 2 * overlapping_steps, config_.forgetting_factor);
+  refreshLinearisationPoint();
+}
+
+void HydraulicIdentifier::reset() {
+  rls_->reset();
+  regressor_->clear();
+  scores_.reset();
+  rows_ = steps_ = skipped_invalid_ = skipped_unexcited_ = 0;
+  error_mean_square_ = error_weight_ = 0.0;
+  last_step_updated_ = false;
+  refreshLinearisationPoint();
+}
+
+ParameterVector HydraulicIdentifier::physicalParameters() const {
+  const ParameterVector c = rls_->parameters().cwiseProduct(scale_);
+  return model_.physicalFromCoefficients(c);
+}
+
+void HydraulicIdentifier::freezeLinearisationPoint(const ParameterVector& physical) {
+  linearisation_frozen_ = false;
+  refreshLinearisationPoint(physical);
+  linearisation_frozen_ = true;
+}
+
+void HydraulicIdentifier::refreshLinearisationPoint() { refreshLinearisationPoint(physicalParameters()); }
+
+void HydraulicIdentifier::refreshLinearisationPoint(ParameterVector physical) {
+  if (linearisation_frozen_) return;
+  // Early estimates can be unphysical; the linearisation stays inside the plausible ranges.
+  const auto& infos = model_.parameterInfos();
+  const ParameterVector nominal = model_.nominalParameters();
+  for (int i = 0; i < physical.size(); ++i) {
+    if (!std::isfinite(physical(i))) physical(i) = nominal(i);
+    physical(i) = std::clamp(physical(i), infos[i].lower_bound, infos[i].upper_bound);
+  }
+  if (physical(HydraulicModel::kBulkModulus) <= 0.0) physical(HydraulicModel::kBulkModulus) = nominal(0);
+  linearisation_point_ = physical;
+}
+
+double HydraulicIdentifier::capacitanceAt(const RegressionRow& row) const {
+  HydraulicSignals s;
+  s.t = row.t;
+  s.p = row.p;
+  s.x = row.x;
+  s.u = row.u;
+  s.y = row.y;
+  s.V = model_.chamberVolume(row.x, linearisation_point_(HydraulicModel::kDeadVolume));
+  return model_.capacitance(s, linearisation_point_);
+}
+
+bool HydraulicIdentifier::push(const GridSample& s) {
+  // An unmeasured spool arrives already predicted (IdentificationPipeline, per valve message); a NaN spool
+  // here means the valve stream itself is missing, and the sample is unusable.
+  const bool usable = s.complete && std::isfinite(s.p) && std::isfinite(s.x) && std::isfinite(s.u) &&
+                      std::isfinite(s.y) && s.p >= config_.min_pressure &&
+                      std::abs(s.y) <= config_.max_spool_opening;
+  if (!regressor_->push(s, usable, linearisation_point_, &row_)) return false;
+  if (++rows_ % static_cast<std::uint64_t>(config_.decimation()) != 0) return false;
+  last_step_updated_ = identificationStep();
+  return true;
+}
+
+bool HydraulicIdentifier::identificationStep() {
+  ++steps_;
+  if (!row_.valid) {
+    ++skipped_invalid_;
+    scores_.skip();
+    return false;
+  }
+  const bool excited = std::abs(row_.velocity) >= config_.min_velocity ||
+                       std::abs(row_.pressure_rate) >= config_.min_pressure_rate;
+  if (!excited) {
+    ++skipped_unexcited_;
+    scores_.skip();
+    return false;
+  }
+  const int n = model_.parameterCount();
+  ParameterVector phi(n);
+  // A custom term can still explode off the probed range; such a row would poison the covariance for good.
+  constexpr double kLargestColumn = 1e100;
+  bool usable = std::isfinite(row_.z);
+  for (int j = 0; j < n; ++j) {
+    phi(j) = row_.phi[j] * scale_(j) / flow_scale_;
+    usable = usable && std::abs(phi(j)) <= kLargestColumn;  // false for NaN too
+  }
+  if (!usable) {
+    ++skipped_invalid_;
+    scores_.skip();
+    return false;
+  }
+  const auto status = rls_->update(phi, row_.z / flow_scale_);
+  if (status != RecursiveLeastSquares::UpdateStatus::kUpdated) {
+    scores_.skip();
+    return false;
+  }
+  // The score with the a-posteriori residual: the a-priori one carries the start-up transient.
+  scores_.add(phi * (row_.z / flow_scale_ - phi.dot(rls_->parameters())));
+
+  // Equation error in the user's units: flow error over capacitance = error of dp/dt.
+  const double capacitance = capacitanceAt(row_);
+  if (capacitance > 0.0 && std::isfinite(capacitance)) {
+    const double rate_error = rls_->lastPriorError() * flow_scale_ / capacitance;
+    const double lambda = config_.forgetting_factor;
+    error_weight_ = lambda * error_weight_ + 1.0;
+    error_mean_square_ += (rate_error * rate_error - error_mean_square_) / error_weight_;
+  }
+  refreshLinearisationPoint();
+  return true;
+}
+
+HydraulicEstimate HydraulicIdentifier::estimate() const {
+  HydraulicEstimate e;
+  e.t = row_.t;
+  e.effects = model_.effectNames();
+  e.updates = rls_->updates();
+  e.steps = steps_;
+  e.skipped_invalid = skipped_invalid_;
+  e.skipped_unexcited = skipped_unexcited_;
+  e.equation_error_rms = std::sqrt(error_mean_square_);
+
+  const int n = model_.parameterCount();
+  const ParameterVector c = rls_->parameters().cwiseProduct(scale_);
+  CovarianceMatrix J;
+  const ParameterVector physical = model_.physicalFromCoefficients(c, &J);
+  const CovarianceMatrix& P = rls_->covariance();
+  const CovarianceMatrix coefficient_covariance =
+      scale_.asDiagonal() * (P * scores_.scoreCovariance() * P) * scale_.asDiagonal();
+  const CovarianceMatrix physical_covariance = J * coefficient_covariance * J.transpose();
+  for (int i = 0; i < n; ++i) {
+    const auto& info = model_.parameterInfos()[i];
+    e.parameters.push_back(
+        {info.name, info.unit, physical(i), std::sqrt(std::max(physical_covariance(i, i), 0.0))});
+  }
+  return e;
+}
+
+}  // namespace die_cushion_ident

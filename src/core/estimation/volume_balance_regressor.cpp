@@ -1,0 +1,207 @@
+#include "die_cushion_ident/core/estimation/volume_balance_regressor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace die_cushion_ident {
+
+namespace {
+enum RawChannel { kT, kP, kX, kU, kY, kRawCount };
+}
+
+VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model,
+                                               const IdentificationConfig& config)
+    : model_(model),
+      form_(config.regression_form),
+      dt_(config.resampler.sample_period),
+      n_(model.parameterCount()),
+      // The integral form closes an increment one sample late (its quadrature looks one sample ahead), and
+      // takes each sample one sample late (the port side looks at the next spool).
+      delay_((config.moving_average_width - 1) / 2 + (config.derivative_width - 1) / 2 +
+             (config.regression_form == RegressionForm::kIntegral ? 2 : 0)),
+      raw_(delay_, kRawCount),
+      increment_window_(config.derivative_width - 1, model.parameterCount() + 2),
+      window_average_(config.moving_average_width, model.parameterCount() + 2),
+      signal_average_(config.moving_average_width, 5),
+      derivative_(config.derivative_width, 2, config.resampler.sample_period),
+      aligned_((config.derivative_width - 1) / 2, 5),
+      span_flags_(config.derivative_width, 1),
+      scratch_(model.parameterCount() + 2, 0.0) {}
+
+void VolumeBalanceRegressor::clear() {
+  raw_.clear();
+  increment_window_.clear();
+  window_average_.clear();
+  pending_count_ = 0;
+  node_count_ = 0;
+  signal_average_.clear();
+  derivative_.clear();
+  aligned_.clear();
+  span_flags_.clear();
+}
+
+HydraulicSignals VolumeBalanceRegressor::signalsAt(double t, double p, double dp, double x, double v,
+                                                   double u, double y, const ParameterVector& point) const {
+  HydraulicSignals s;
+  s.t = t;
+  s.p = p;
+  s.dp = dp;
+  s.x = x;
+  s.v = v;
+  s.u = u;
+  s.y = y;
+  s.V = model_.chamberVolume(x, point(HydraulicModel::kDeadVolume));
+  return s;
+}
+
+bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const ParameterVector& point,
+                                  RegressionRow* row) {
+  if (sample.discontinuity) clear();
+  const double raw[kRawCount] = {sample.t, sample.p, sample.x, sample.u, sample.y};
+  const bool raw_ready = raw_.push(raw);
+  bool ready = false;
+  if (form_ == RegressionForm::kDerivative) {
+    ready = pushDerivative(sample, usable, point, row);
+  } else {
+    if (pending_count_ == 3) {
+      pending_[0] = pending_[1];
+      pending_[1] = pending_[2];
+      pending_count_ = 2;
+    }
+    pending_[pending_count_++] = {sample, usable};
+    if (pending_count_ == 3) {
+      const auto known = [&](int k) { return pending_[k].usable && std::isfinite(pending_[k].sample.y); };
+      if (known(0) && known(1) && known(2)) {
+        spool_noise_.add(pending_[0].sample.y, pending_[1].sample.y, pending_[2].sample.y);
+      }
+      const auto drains = [](double y) { return y >= 0.0 ? 1.0 : 0.0; };
+      const double own = drains(pending_[1].sample.y);
+      double drain_weight = own;
+      if (std::abs(pending_[1].sample.y) < 3.0 * spool_noise_.sigma()) {
+        drain_weight = 0.5 * own;
+        for (int k : {0, 2}) drain_weight += 0.25 * (known(k) ? drains(pending_[k].sample.y) : own);
+      }
+      ready = pushIntegral(pending_[1].sample, pending_[1].usable, drain_weight, point, row);
+    }
+  }
+  if (!ready || !raw_ready) return false;
+  row->t = raw_.output(kT);
+  row->p = raw_.output(kP);
+  row->x = raw_.output(kX);
+  row->u = raw_.output(kU);
+  row->y = raw_.output(kY);
+  row->velocity = row->z / model_.geometry().piston_area;
+  row->pressure_rate = row->phi[HydraulicModel::kDeadVolume];  // column a = 1: the window-mean dp/dt
+  return true;
+}
+
+// The balance A dx = sum_j c_j (a_j dp + g_j dt) holds for every increment, so it also holds for any linear
+// filter of the increments: summing d-1 of them and averaging b such sums loses nothing and adds no bias.
+// Quadrature of one increment between samples k-1 and k: the capacitance part by the trapezoid rule
+// (its noise is uncorrelated with dp), the flow part by the 4-point rule on k-2 .. k+1, which is exact for
+// cubics; the 2nd-order midpoint rule biased stiff, fast-controlled cushions (doc/equations.md).
+bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, double drain_weight,
+                                          const ParameterVector& point, RegressionRow* row) {
+  if (node_count_ == 4) {
+    for (int i = 0; i < 3; ++i) nodes_[i] = nodes_[i + 1];
+    node_count_ = 3;
+  }
+  Node& node = nodes_[node_count_];
+  node.sample = s;
+  node.usable = usable;
+  if (usable) {
+    const Node* before = node_count_ > 0 ? &nodes_[node_count_ - 1] : nullptr;
+    const bool have_before = before && before->usable;
+    const double v = have_before ? (s.x - before->sample.x) / dt_ : 0.0;
+    const double dp = have_before ? (s.p - before->sample.p) / dt_ : 0.0;
+    HydraulicSignals signals = signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, point);
+    if (drain_weight == 0.0 || drain_weight == 1.0) {
+      signals.port_side = drain_weight == 1.0 ? 1.0 : -1.0;
+      model_.regressionColumns(signals, point, node.a, node.g);
+    } else {  // the spool near its kink: the columns of both ports, weighted
+      double a_supply[kMaxParameters], g_supply[kMaxParameters];
+      signals.port_side = 1.0;
+      model_.regressionColumns(signals, point, node.a, node.g);
+      signals.port_side = -1.0;
+      model_.regressionColumns(signals, point, a_supply, g_supply);
+      for (int j = 0; j < n_; ++j) {
+        node.a[j] = drain_weight * node.a[j] + (1.0 - drain_weight) * a_supply[j];
+        node.g[j] = drain_weight * node.g[j] + (1.0 - drain_weight) * g_supply[j];
+      }
+    }
+  }
+  ++node_count_;
+  if (node_count_ < 4) return false;
+
+  // The increment between nodes 1 and 2, with nodes 0 and 3 as the outer quadrature points.
+  double* channels = scratch_.data();  // [z, phi_0 .. phi_{n-1}, unusable]
+  std::fill(scratch_.begin(), scratch_.end(), 0.0);
+  if (nodes_[0].usable && nodes_[1].usable && nodes_[2].usable && nodes_[3].usable) {
+    const GridSample& s1 = nodes_[1].sample;
+    const GridSample& s2 = nodes_[2].sample;
+    const double dp = s2.p - s1.p;
+    channels[0] = model_.geometry().piston_area * (s2.x - s1.x);
+    const double w_outer = -dt_ / 24.0, w_inner = 13.0 * dt_ / 24.0;
+    for (int j = 0; j < n_; ++j) {
+      double capacitive = 0.5 * (nodes_[1].a[j] + nodes_[2].a[j]) * dp;
+      if (j >= HydraulicModel::kFirstEffect) {
+        HydraulicSignals from, to;
+        from.p = s1.p;
+        from.x = s1.x;
+        to.p = s2.p;
+        to.x = s2.x;
+        double exact = 0.0;
+        const Effect& e = model_.effect(j - HydraulicModel::kFirstEffect);
+        if (e.coupling() == Effect::Coupling::kAdditive && e.capacitanceIncrement(from, to, &exact)) capacitive = exact;
+      }
+      const double flow =
+          w_outer * (nodes_[0].g[j] + nodes_[3].g[j]) + w_inner * (nodes_[1].g[j] + nodes_[2].g[j]);
+      channels[j + 1] = capacitive + flow;
+    }
+  } else {
+    channels[n_ + 1] = 1.0;
+  }
+
+  increment_window_.push(channels);
+  if (!increment_window_.full()) return false;
+  if (!window_average_.push(increment_window_.sum())) return false;
+
+  const auto& averaged = window_average_.output();
+  const double per_second = 1.0 / (static_cast<double>(increment_window_.width()) * dt_);
+  row->z = averaged[0] * per_second;
+  for (int j = 0; j < n_; ++j) row->phi[j] = averaged[j + 1] * per_second;
+  row->valid = averaged[n_ + 1] < 1e-9;  // counts of unusable samples, exact in doubles
+  return true;
+}
+
+// The paper's form: filter the signals, differentiate, then evaluate the model at the filtered signals.
+bool VolumeBalanceRegressor::pushDerivative(const GridSample& s, bool usable, const ParameterVector& point,
+                                            RegressionRow* row) {
+  if (usable) {
+    held_[0] = s.p;
+    held_[1] = s.x;
+    held_[2] = s.u;
+    held_[3] = s.y;
+  }
+  const double signals[5] = {held_[0], held_[1], held_[2], held_[3], usable ? 0.0 : 1.0};
+  if (!signal_average_.push(signals)) return false;
+  const auto& filtered = signal_average_.output();
+  const bool derivative_ready = derivative_.push(filtered.data());
+  const bool aligned_ready = aligned_.push(filtered.data());
+  span_flags_.push(filtered[4]);
+  if (!derivative_ready || !aligned_ready) return false;
+
+  const double dp = derivative_.output(0);
+  const double v = derivative_.output(1);
+  const HydraulicSignals f = signalsAt(s.t - delay_ * dt_, aligned_.output(0), dp, aligned_.output(1), v,
+                                       aligned_.output(2), aligned_.output(3), point);
+  row->z = model_.geometry().piston_area * v;
+  double a[kMaxParameters], g[kMaxParameters];
+  model_.regressionColumns(f, point, a, g);
+  for (int j = 0; j < n_; ++j) row->phi[j] = a[j] * dp + g[j];
+  row->valid = span_flags_.sum(0) < 1e-9;
+  return true;
+}
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,280 @@
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace die_cushion_ident {
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Messages on a new time base needed to confirm a jump, and the most held at once (a topic stamped by a
+// wild clock for seconds must not grow memory).
+constexpr std::size_t kHeldToConfirm = 3;
+constexpr std::size_t kMaxHeld = 64;
+}
+
+const char* inputStreamName(InputStream stream) {
+  switch (stream) {
+    case InputStream::kPressure:
+      return "pressure";
+    case InputStream::kPosition:
+      return "position";
+    case InputStream::kValve:
+      return "valve";
+  }
+  return "?";
+}
+
+UniformResampler::UniformResampler(const Config& config) : config_(config) {
+  if (!(config.sample_period > 0.0) || !std::isfinite(config.sample_period)) {
+    throw std::invalid_argument("sample_period must be > 0 s");
+  }
+  if (!(config.max_gap > config.sample_period))
+    throw std::invalid_argument("max_gap must exceed sample_period");
+  if (!(config.stale_timeout >= config.max_gap))
+    throw std::invalid_argument("stale_timeout must be >= max_gap");
+  if (!(config.restart_jump > config.stale_timeout)) {
+    throw std::invalid_argument("restart_jump must exceed stale_timeout");
+  }
+}
+
+void UniformResampler::reset() {
+  for (auto& c : channels_) c = Channel{};
+  for (auto& h : health_) h = StreamHealth{};
+  started_ = false;
+  grid_started_ = false;
+  pending_discontinuity_ = false;
+  next_index_ = 0;
+  restarts_ = 0;
+  emitted_ = 0;
+  held_.clear();
+}
+
+void UniformResampler::restartGrid() {
+  for (auto& c : channels_) c = Channel{};
+  for (auto& h : health_) h.stale = false;
+  started_ = false;
+  grid_started_ = false;
+  pending_discontinuity_ = true;
+  ++restarts_;
+}
+
+void UniformResampler::updateIntervalStatistics(StreamHealth& h, double interval) {
+  if (interval > config_.restart_jump) {
+    // A pause in the recording is a gap, not a message interval: it must not drag the rate to 1e-5 Hz.
+    ++h.gaps;
+    return;
+  }
+  // Welford's running mean and variance of the message interval. The square root is the costliest step of
+  // a message's path (a quarter of the pipeline's time when taken per message): the std is refreshed every
+  // 64 intervals, which no reader of a jitter figure can tell apart.
+  const double n = static_cast<double>(++h.intervals);
+  const double delta = interval - h.mean_interval;
+  h.mean_interval += delta / n;
+  h.interval_m2 += delta * (interval - h.mean_interval);
+  if ((h.intervals & 63u) == 0 || h.intervals < 64) {
+    h.interval_std = n > 1.0 ? std::sqrt(std::max(h.interval_m2 / n, 0.0)) : 0.0;
+  }
+  h.max_interval = std::max(h.max_interval, interval);
+  if (interval > config_.max_gap) ++h.gaps;
+}
+
+UniformResampler::PushResult UniformResampler::push(InputStream stream, const StreamSample& sample,
+                                                    std::vector<GridSample>* out) {
+  const int s = static_cast<int>(stream);
+  StreamHealth& h = health_[s];
+  ++h.received;
+  if (!std::isfinite(sample.stamp) || !std::isfinite(sample.first)) {
+    ++h.non_finite;
+    return PushResult::kNonFinite;
+  }
+  const Config::Bounds& bounds = config_.plausible[s];
+  if (sample.first < bounds.min_first || sample.first > bounds.max_first ||
+      std::abs(sample.second) > bounds.max_abs_second) {  // NaN second ("not measured") passes
+    ++h.implausible;
+    return PushResult::kImplausible;
+  }
+  if (started_ && std::abs(sample.stamp - newest_stamp_) > config_.restart_jump) {
+    // Far off the time base: hold it until the other topics confirm the jump or refute it.
+    if (!held_.empty() && std::abs(sample.stamp - held_.back().sample.stamp) > config_.restart_jump) {
+      for (const Held& wild : held_) ++health_[static_cast<int>(wild.stream)].wild_stamps;
+      held_.clear();  // not even consistent with each other
+    }
+    h.last_wild_offset = sample.stamp - newest_stamp_;
+    held_.push_back({stream, sample});
+    if (held_.size() > kMaxHeld) {
+      ++health_[static_cast<int>(held_.front().stream)].wild_stamps;
+      held_.pop_front();
+    }
+    if (!jumpConfirmed()) return PushResult::kHeld;
+    const bool backwards = held_.front().sample.stamp < newest_stamp_;
+    if (backwards) restartGrid();
+    std::deque<Held> replay;
+    replay.swap(held_);
+    if (!backwards) newest_stamp_ = replay.front().sample.stamp;  // a pause: the grid jumps ahead
+    for (const Held& m : replay) accept(m.stream, m.sample, out);
+    return backwards ? PushResult::kRestarted : PushResult::kAccepted;
+  }
+  if (!held_.empty()) {
+    // A message on the old time base: the held stamps were wild.
+    for (const Held& wild : held_) ++health_[static_cast<int>(wild.stream)].wild_stamps;
+    held_.clear();
+  }
+  return accept(stream, sample, out);
+}
+
+bool UniformResampler::jumpConfirmed() const {
+  bool streams[kInputStreamCount] = {false, false, false};
+  int distinct = 0;
+  for (const Held& m : held_) {
+    if (!streams[static_cast<int>(m.stream)]) ++distinct;
+    streams[static_cast<int>(m.stream)] = true;
+  }
+  int speaking = 0;
+  for (const auto& c : channels_) speaking += c.has_any ? 1 : 0;
+  return held_.size() >= kHeldToConfirm && distinct >= std::min(2, std::max(speaking, 1));
+}
+
+UniformResampler::PushResult UniformResampler::accept(InputStream stream, const StreamSample& sample,
+                                                      std::vector<GridSample>* out) {
+  const int s = static_cast<int>(stream);
+  StreamHealth& h = health_[s];
+  Channel& c = channels_[s];
+  if (c.has_any && sample.stamp == h.last_stamp) {
+    ++h.duplicates;
+    return PushResult::kDuplicate;
+  } else if (c.has_any && sample.stamp < h.last_stamp) {
+    ++h.out_of_order;
+    return PushResult::kOutOfOrder;
+  }
+
+  StreamSample stored = sample;
+  if (!std::isfinite(stored.second)) stored.second = kNaN;  // "not measured"
+  ++h.accepted;
+  if (c.has_any) updateIntervalStatistics(h, stored.stamp - h.last_stamp);
+  if (grid_started_ && stored.stamp < (next_index_ - 1) * config_.sample_period) ++h.late;
+  c.buffer.push_back(stored);
+  c.has_any = true;
+  h.last_stamp = stored.stamp;
+  h.stale = false;
+  if (!started_) first_stamp_ = stored.stamp;
+  newest_stamp_ = started_ ? std::max(newest_stamp_, stored.stamp) : stored.stamp;
+  started_ = true;
+  emitReady(out, false);
+  return PushResult::kAccepted;
+}
+
+void UniformResampler::flush(std::vector<GridSample>* out) { emitReady(out, true); }
+
+bool UniformResampler::interpolate(int stream, double t, double* first, double* second) const {
+  const auto& buffer = channels_[stream].buffer;
+  // The buffer is popped so that buffer[0] is the last message at or before the previous grid point.
+  for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
+    const StreamSample& a = buffer[i];
+    const StreamSample& b = buffer[i + 1];
+    if (a.stamp <= t && t <= b.stamp) {
+      if (b.stamp - a.stamp > config_.max_gap) break;
+      const double w = (t - a.stamp) / (b.stamp - a.stamp);
+      // The valve voltage is in force from its stamp on (held by the amplifier), so it is held, not
+      // interpolated: interpolation would lead the real command by half a message period.
+      const bool held = stream == static_cast<int>(InputStream::kValve);
+      *first = held ? (t < b.stamp ? a.first : b.first) : a.first + w * (b.first - a.first);
+      *second = a.second + w * (b.second - a.second);  // NaN stays NaN: not measured
+      return true;
+    }
+  }
+  if (!buffer.empty() && buffer.back().stamp == t) {
+    *first = buffer.back().first;
+    *second = buffer.back().second;
+    return true;
+  }
+  *first = kNaN;
+  *second = kNaN;
+  return false;
+}
+
+void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
+  const double dt = config_.sample_period;
+  if (!grid_started_) {
+    // Start once every stream has spoken, or once a silent stream is overdue (it is then reported stale).
+    double latest_first = -std::numeric_limits<double>::infinity();
+    double earliest_first = std::numeric_limits<double>::infinity();
+    int speaking = 0;
+    for (const auto& c : channels_) {
+      if (c.buffer.empty()) continue;
+      ++speaking;
+      latest_first = std::max(latest_first, c.buffer.front().stamp);
+      earliest_first = std::min(earliest_first, c.buffer.front().stamp);
+    }
+    if (speaking == 0) return;
+    if (speaking < kInputStreamCount && newest_stamp_ - earliest_first < config_.stale_timeout && !flushing)
+      return;
+    next_index_ = static_cast<std::int64_t>(std::ceil(latest_first / dt - 1e-9));
+    grid_started_ = true;
+  }
+
+  for (;;) {
+    const double t = static_cast<double>(next_index_) * dt;
+    bool must_wait = false;
+    bool any_bracketed = false;
+    double resume = std::numeric_limits<double>::infinity();
+    // Each stream's interpolated (first, second) at t; NaN where it has nothing to bracket t with.
+    double first[kInputStreamCount] = {kNaN, kNaN, kNaN};
+    double second[kInputStreamCount] = {kNaN, kNaN, kNaN};
+    for (int s = 0; s < kInputStreamCount; ++s) {
+      const Channel& c = channels_[s];
+      StreamHealth& h = health_[s];
+      const bool has_future = c.has_any && c.buffer.back().stamp >= t;
+      if (has_future) {
+        for (const auto& m : c.buffer) {
+          if (m.stamp >= t) {
+            resume = std::min(resume, m.stamp);
+            break;
+          }
+        }
+        if (interpolate(s, t, &first[s], &second[s])) any_bracketed = true;
+        continue;
+      }
+      const double silent_since = c.has_any ? c.buffer.back().stamp : first_stamp_;
+      h.stale = newest_stamp_ - silent_since >= config_.stale_timeout;
+      if (!h.stale && !flushing) must_wait = true;
+    }
+    if (must_wait) return;
+    if (flushing && t > newest_stamp_) return;
+    if (!any_bracketed) {
+      if (!std::isfinite(resume)) return;  // nothing ahead of t at all: wait for data
+      if (resume - t > config_.restart_jump) {
+        // A long silence in every stream: jump the grid rather than emit hours of empty samples.
+        next_index_ = static_cast<std::int64_t>(std::ceil(resume / dt - 1e-9));
+        pending_discontinuity_ = true;
+        continue;
+      }
+    }
+
+    constexpr int kP = static_cast<int>(InputStream::kPressure);
+    constexpr int kX = static_cast<int>(InputStream::kPosition);
+    constexpr int kV = static_cast<int>(InputStream::kValve);
+    GridSample g;
+    g.t = t;
+    g.p = first[kP];
+    g.x = first[kX];
+    g.v = second[kX];
+    g.u = first[kV];
+    g.y = second[kV];
+    g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
+    g.discontinuity = pending_discontinuity_;
+    pending_discontinuity_ = false;
+    out->push_back(g);
+    ++emitted_;
+    ++next_index_;
+
+    const double t_next = static_cast<double>(next_index_) * dt;
+    for (auto& c : channels_) {
+      while (c.buffer.size() >= 2 && c.buffer[1].stamp <= t_next) c.buffer.pop_front();
+    }
+  }
+}
+
+}  // namespace die_cushion_ident

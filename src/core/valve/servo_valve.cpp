@@ -1,0 +1,72 @@
+#include "die_cushion_ident/core/valve/servo_valve.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace die_cushion_ident {
+
+ServoValve::ServoValve(const ServoValveParameters& parameters, double max_step)
+    : parameters_(parameters), max_step_(max_step), omega_(2.0 * M_PI * parameters.natural_frequency) {
+  if (!(parameters.natural_frequency > 0.0))
+    throw std::invalid_argument("valve natural_frequency must be > 0 Hz");
+  if (!(parameters.damping > 0.0)) throw std::invalid_argument("valve damping must be > 0");
+  if (!(parameters.dead_time >= 0.0)) throw std::invalid_argument("valve dead_time must be >= 0 s");
+  if (!std::isfinite(parameters.gain)) throw std::invalid_argument("valve gain must be finite");
+  if (!(parameters.max_spool_velocity > 0.0)) throw std::invalid_argument("max_spool_velocity must be > 0");
+  if (!(max_step > 0.0)) throw std::invalid_argument("valve integration step must be > 0 s");
+  reset();
+}
+
+void ServoValve::reset(double position) {
+  time_ = 0.0;
+  y_ = position;
+  y_dot_ = 0.0;
+  commands_.clear();
+  commands_.emplace_back(-std::numeric_limits<double>::infinity(),
+                         parameters_.gain != 0.0 ? position / parameters_.gain : 0.0);
+}
+
+double ServoValve::delayedCommand(double t) {
+  const double seen = t - parameters_.dead_time;
+  while (commands_.size() >= 2 && commands_[1].first <= seen) commands_.pop_front();
+  return commands_.front().second;
+}
+
+void ServoValve::integrate(double h, double u) {
+  const double w2 = omega_ * omega_;
+  const double two_d_w = 2.0 * parameters_.damping * omega_;
+  const double target = parameters_.gain * u;
+  const double vmax = parameters_.max_spool_velocity;
+  // The speed limit acts inside the derivative, so that the position can never move faster than allowed.
+  auto speed = [&](double yd) { return std::clamp(yd, -vmax, vmax); };
+  auto accel = [&](double y, double yd) { return w2 * (target - y) - two_d_w * yd; };
+  const double k1y = speed(y_dot_), k1v = accel(y_, y_dot_);
+  const double v2 = y_dot_ + 0.5 * h * k1v, k2y = speed(v2), k2v = accel(y_ + 0.5 * h * k1y, v2);
+  const double v3 = y_dot_ + 0.5 * h * k2v, k3y = speed(v3), k3v = accel(y_ + 0.5 * h * k2y, v3);
+  const double v4 = y_dot_ + h * k3v, k4y = speed(v4), k4v = accel(y_ + h * k3y, v4);
+  y_ += h / 6.0 * (k1y + 2 * k2y + 2 * k3y + k4y);
+  y_dot_ = speed(y_dot_ + h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v));
+  if (std::abs(y_) >= 1.0) {  // against the mechanical stop
+    y_ = std::clamp(y_, -1.0, 1.0);
+    if (y_ * y_dot_ > 0.0) y_dot_ = 0.0;
+  }
+}
+
+double ServoValve::advance(double dt, double command_voltage) {
+  if (!(dt > 0.0)) return y_;
+  if (std::isfinite(command_voltage)) commands_.emplace_back(time_, command_voltage);
+  const double end = time_ + dt;
+  while (time_ < end) {
+    // Steps end exactly where the delayed command switches, so the dead time is not rounded to a step.
+    const double u = delayedCommand(time_ + 1e-12);
+    double stop = std::min(end, time_ + max_step_);
+    if (commands_.size() >= 2) stop = std::min(stop, commands_[1].first + parameters_.dead_time);
+    if (!(stop > time_)) stop = std::min(end, time_ + max_step_);
+    integrate(stop - time_, u);
+    time_ = stop;
+  }
+  return y_;
+}
+
+}  // namespace die_cushion_ident
