@@ -41,10 +41,10 @@ TEST_P(HiddenEffect, IsTheTopCandidateMissingAndAddingItHalvesTheError) {
     ASSERT_FALSE(ranking.candidates.empty());
     const CandidateEffect& top = ranking.candidates.front();
     EXPECT_EQ(top.effect, effect) << ranking.conclusion;
-    EXPECT_EQ(top.verdict, "missing") << top.explanation;
+    EXPECT_EQ(top.verdict, Verdict::kMissing) << top.explanation;
     EXPECT_FALSE(ranking.residual_unexplained) << ranking.conclusion;
     for (std::size_t i = 1; i < ranking.candidates.size(); ++i) {
-      EXPECT_NE(ranking.candidates[i].verdict, "missing") << ranking.candidates[i].effect;
+      EXPECT_NE(ranking.candidates[i].verdict, Verdict::kMissing) << ranking.candidates[i].effect;
     }
     // Its parameter in physical units, within 25 % of the truth.
     ASSERT_EQ(top.parameters.size(), 1u);
@@ -81,7 +81,7 @@ TEST_P(HiddenPair, TheStaircaseAddsExactlyBothAndReachesTheNoise) {
     EXPECT_LT(ranking.best_error_rms, 4.0 * r.plant.sensors.pressure_noise) << ranking.conclusion;
     EXPECT_NE(ranking.conclusion.find("together"), std::string::npos) << ranking.conclusion;
     for (std::size_t i = 0; i < ranking.candidates.size(); ++i) {
-      EXPECT_EQ(ranking.candidates[i].verdict == "missing", i < 2) << ranking.candidates[i].effect;
+      EXPECT_EQ(ranking.candidates[i].verdict == Verdict::kMissing, i < 2) << ranking.candidates[i].effect;
     }
   }
 }
@@ -99,7 +99,7 @@ TEST(EffectRankingResult, CleanDataGetNoMissingVerdict) {
     const Recording r = record(testing::randomPlant(seed));
     const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
     for (const auto& c : ranking.candidates) {
-      EXPECT_NE(c.verdict, "missing") << "seed " << seed << ": " << c.effect << " " << c.explanation;
+      EXPECT_NE(c.verdict, Verdict::kMissing) << "seed " << seed << ": " << c.effect << " " << c.explanation;
     }
     EXPECT_FALSE(ranking.residual_unexplained) << ranking.conclusion;
     EXPECT_NE(ranking.conclusion.find("no effect is missing"), std::string::npos) << ranking.conclusion;
@@ -141,7 +141,7 @@ TEST(EffectRankingResult, FalseAlarmRateOnCleanDataIsAtMostTheSignificance) {
     const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
     bool alarm = false;
     for (const auto& c : ranking.candidates) {
-      alarm |= c.verdict == "missing";
+      alarm |= c.verdict == Verdict::kMissing;
       largest_reduction = std::max(largest_reduction, c.error_reduction);
     }
     if (alarm) std::printf("  false alarm on plant %llu: %s\n", static_cast<unsigned long long>(seed), ranking.conclusion.c_str());
@@ -165,7 +165,7 @@ TEST(EffectRankingResult, TooFewCyclesMakeEveryVerdictInconclusive) {
   const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
   for (const auto& c : ranking.candidates) {
     const bool implausible = c.explanation.find("outside its physical range") != std::string::npos;
-    EXPECT_EQ(c.verdict, implausible ? "not_needed" : "inconclusive") << c.effect << ": " << c.explanation;
+    EXPECT_EQ(c.verdict, implausible ? Verdict::kNotNeeded : Verdict::kInconclusive) << c.effect << ": " << c.explanation;
   }
   EXPECT_NE(ranking.conclusion.find("Too few complete press cycles"), std::string::npos);
 }

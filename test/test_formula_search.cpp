@@ -46,11 +46,11 @@ TEST_P(OutOfLibraryEffect, IsProposedOnTheRightSignalAndProvenOnHeldOutCycles) {
     ASSERT_FALSE(proposals.empty()) << ranking.conclusion;
     const FormulaProposal& top = proposals.front();
     for (const auto& p : proposals) {
-      std::printf("  %s  %s reduction %.3f held-out %.3g bar  %s\n", p.spec().c_str(), p.verdict.c_str(),
+      std::printf("  %s  %s reduction %.3f held-out %.3g bar  %s\n", p.spec().c_str(), verdictName(p.verdict),
                   p.error_reduction, p.held_out_error_rms * 1e-5, p.explanation.c_str());
     }
     EXPECT_EQ(top.signal, effect.signal) << top.spec();
-    EXPECT_EQ(top.verdict, "missing") << top.explanation;
+    EXPECT_EQ(top.verdict, Verdict::kMissing) << top.explanation;
     if (!std::isnan(effect.breakpoint)) {
       EXPECT_NEAR(top.breakpoint / effect.breakpoint, 1.0, 0.10) << top.spec();
     }
@@ -94,7 +94,7 @@ TEST(FormulaSearch, CleanDataAndLibraryEffectsGetNoMissingProposal) {
       EffectRankingResult ranking = rankEffects(r.grid, r.strokes, config);
       addFormulaProposals(r.grid, r.strokes, config, &ranking);
       for (const auto& p : ranking.proposals) {
-        EXPECT_NE(p.verdict, "missing") << p.spec() << ": " << p.explanation;
+        EXPECT_NE(p.verdict, Verdict::kMissing) << p.spec() << ": " << p.explanation;
       }
       EXPECT_EQ(ranking.steps.size(), effects.size()) << ranking.conclusion;
     }

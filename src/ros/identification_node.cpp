@@ -341,7 +341,7 @@ void IdentificationNode::publishRanking(RankingJob job) {
   for (const auto& c : ranking_->candidates) {
     msg.effects.push_back(c.effect);
     msg.error_reduction.push_back(c.error_reduction);
-    msg.verdicts.push_back(c.verdict);
+    msg.verdicts.push_back(verdictName(c.verdict));
     msg.explanations.push_back(c.explanation);
   }
   msg.held_out_error_rms = ranking_->base_error_rms;
@@ -355,7 +355,7 @@ void IdentificationNode::publishRanking(RankingJob job) {
   for (const auto& p : ranking_->proposals) {
     msg.proposals.push_back(p.spec());
     msg.proposal_error_reduction.push_back(p.error_reduction);
-    msg.proposal_verdicts.push_back(p.verdict);
+    msg.proposal_verdicts.push_back(verdictName(p.verdict));
     msg.proposal_explanations.push_back(p.explanation);
   }
   msg.conclusion = ranking_->conclusion;
@@ -753,11 +753,11 @@ void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWr
     status.add("effect ranking", ranking_->conclusion);
     for (const auto& c : ranking_->candidates) {
       status.add("candidate " + c.effect,
-                 c.verdict + ", " + formatted("%.0f %% less error", 100 * c.error_reduction));
+                 verdictName(c.verdict) + std::string(", ") + formatted("%.0f %% less error", 100 * c.error_reduction));
     }
-    if (!ranking_->candidates.empty() && ranking_->candidates.front().verdict == "missing") {
+    if (!ranking_->candidates.empty() && ranking_->candidates.front().verdict == Verdict::kMissing) {
       where += "; suspected missing effect: " + ranking_->candidates.front().effect;
-    } else if (!ranking_->proposals.empty() && ranking_->proposals.front().verdict == "missing") {
+    } else if (!ranking_->proposals.empty() && ranking_->proposals.front().verdict == Verdict::kMissing) {
       where += "; proposed formula: " + ranking_->proposals.front().spec();
     } else if (ranking_->residual_unexplained) {
       where += "; not explained by the effect library: consider a custom effect";

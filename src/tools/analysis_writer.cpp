@@ -171,7 +171,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::BeginMap;
     out << YAML::Key << "effect" << YAML::Value << c.effect;
     out << YAML::Key << "error_reduction" << YAML::Value << c.error_reduction;
-    out << YAML::Key << "verdict" << YAML::Value << c.verdict;
+    out << YAML::Key << "verdict" << YAML::Value << verdictName(c.verdict);
     out << YAML::Key << "explanation" << YAML::Value << c.explanation;
     out << YAML::Key << "held_out_cycles" << YAML::Value << c.held_out_cycles;
     out << YAML::Key << "t_statistic" << YAML::Value << c.t_statistic;
@@ -196,7 +196,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::BeginMap;
     out << YAML::Key << "expression" << YAML::Value << p.spec();
     out << YAML::Key << "error_reduction" << YAML::Value << p.error_reduction;
-    out << YAML::Key << "verdict" << YAML::Value << p.verdict;
+    out << YAML::Key << "verdict" << YAML::Value << verdictName(p.verdict);
     out << YAML::Key << "parameters" << YAML::Value;
     emitParameters(out, p.parameters);
     out << YAML::Key << "explanation" << YAML::Value << p.explanation;

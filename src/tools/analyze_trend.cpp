@@ -27,6 +27,7 @@
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
 #include "die_cushion_ident/core/analysis/parameter_trend.h"
+#include "die_cushion_ident/core/analysis/verdict.h"
 
 namespace fs = std::filesystem;
 
@@ -395,7 +396,7 @@ int run(int argc, char** argv) {
   for (const auto& effect : effects) {
     std::vector<std::pair<double, bool>> missing;
     for (const auto& r : rows) {
-      if (r.verdicts.count(effect)) missing.emplace_back(r.start, r.verdicts.at(effect) == "missing");
+      if (r.verdicts.count(effect)) missing.emplace_back(r.start, r.verdicts.at(effect) == verdictName(Verdict::kMissing));
     }
     std::size_t first = missing.size();
     while (first > 0 && missing[first - 1].second) --first;
@@ -409,7 +410,7 @@ int run(int argc, char** argv) {
                               ", and was not before: add it to the model (analyze_bag --effects), and see which of "
                               "its parameters changes";
     yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "effect" << YAML::Value << effect << YAML::Key << "verdict"
-         << YAML::Value << "missing" << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start
+         << YAML::Value << verdictName(Verdict::kMissing) << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start
          << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", missing[first].first) << YAML::Key
          << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
     log("change: " + words);

@@ -151,7 +151,7 @@ void feedMessages(Bytes& in, const IdentificationConfig& config,
     fail("a non-finite offline fit");
   if (!std::isfinite(result.assessment.simulation_error_rms)) fail("a non-finite simulation error");
   for (const auto& c : result.ranking.candidates) {
-    if (c.verdict != "missing" && c.verdict != "not_needed" && c.verdict != "inconclusive")
+    if (std::string(verdictName(c.verdict)) == "?")
       fail("bad verdict");
     if (c.explanation.empty()) fail("a verdict without an explanation");
   }

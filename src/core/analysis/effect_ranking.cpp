@@ -51,10 +51,10 @@ void correctForMultipleTests(std::vector<Judged>& round, const EffectRankingOpti
   const std::vector<bool> rejected = holmRejected(p_values, options.significance);
   for (std::size_t i = 0; i < round.size(); ++i) {
     CandidateEffect& c = round[i].candidate;
-    if (c.verdict != "missing") continue;
+    if (c.verdict != Verdict::kMissing) continue;
     const std::string demoted = holmDemotion(c.error_reduction, c.p_value, rejected[i], round.size(), "extensions");
     if (demoted.empty()) continue;
-    c.verdict = "inconclusive";
+    c.verdict = Verdict::kInconclusive;
     c.explanation = round[i].physics + demoted;
   }
 }
@@ -89,7 +89,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   }
   // A fit outside the physical range says "not this effect" however few cycles there are.
   if (!enough) {
-    candidate.verdict = implausible.empty() ? "inconclusive" : "not_needed";
+    candidate.verdict = implausible.empty() ? Verdict::kInconclusive : Verdict::kNotNeeded;
     candidate.explanation = physics + (implausible.empty() ? "; too few complete press cycles (" +
                                                                  std::to_string(strokes.cycles) +
                                                                  ") to judge on held-out cycles"
@@ -166,7 +166,7 @@ std::optional<std::pair<Judged, Judged>> bestMissingPair(const std::vector<GridS
   const Judged* members[2] = {nullptr, nullptr};
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     Judged& pair = pairs[k];
-    if (pair.candidate.verdict != "missing") continue;
+    if (pair.candidate.verdict != Verdict::kMissing) continue;
     if (best && pair.candidate.error_reduction <= best->candidate.error_reduction) continue;
     best = std::move(pair);
     members[0] = alone(singles[indices[k].first].candidate.effect);
@@ -177,9 +177,9 @@ std::optional<std::pair<Judged, Judged>> bestMissingPair(const std::vector<GridS
   }
   if (!best) return std::nullopt;
   Judged first = *members[0], second = *members[1];
-  first.candidate.verdict = "missing";
+  first.candidate.verdict = Verdict::kMissing;
   first.candidate.explanation += " (only together with '" + second.candidate.effect + "')";
-  second.candidate.verdict = "missing";
+  second.candidate.verdict = Verdict::kMissing;
   second.candidate.error_reduction = best->candidate.error_reduction;
   second.candidate.t_statistic = best->candidate.t_statistic;
   second.candidate.held_out_cycles = best->candidate.held_out_cycles;
@@ -209,17 +209,17 @@ std::string quotedList(const std::vector<EffectStep>& steps) {
 HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& implausible,
                             const EffectRankingOptions& options, const std::string& removes) {
   const std::string reduction = formatted("%.0f %%", 100.0 * test.error_reduction);
-  if (!implausible.empty()) return {"not_needed", implausible};
+  if (!implausible.empty()) return {Verdict::kNotNeeded, implausible};
   if (test.cycles < options.min_held_out_cycles) {
-    return {"inconclusive", "; only " + std::to_string(test.cycles) + " held-out cycles"};
+    return {Verdict::kInconclusive, "; only " + std::to_string(test.cycles) + " held-out cycles"};
   }
   if (test.error_reduction >= options.missing_reduction && test.significant) {
-    return {"missing", "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
+    return {Verdict::kMissing, "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
   }
   if (test.error_reduction < options.not_needed_reduction) {
-    return {"not_needed", "; it changes the held-out error by only " + reduction};
+    return {Verdict::kNotNeeded, "; it changes the held-out error by only " + reduction};
   }
-  return {"inconclusive", "; " + reduction + " less held-out error, but not consistently over the cycles (t = " +
+  return {Verdict::kInconclusive, "; " + reduction + " less held-out error, but not consistently over the cycles (t = " +
                               formatted("%.2f", test.t_statistic) + ")"};
 }
 
@@ -266,7 +266,7 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
     // with the true law) is what is left to explain; another "missing" effect there fits that floor, not
     // physics. So the staircase stops when the error has reached the noise.
     if (!ranking.steps.empty() && current.rms <= options.staircase_noise_factor * ranking.noise_rms) break;
-    if (!round.empty() && round.front().candidate.verdict == "missing") {
+    if (!round.empty() && round.front().candidate.verdict == Verdict::kMissing) {
       add(std::move(round.front()), "");
     } else if (ranking.steps.empty() && current.rms > floor && round.size() >= 2) {
       // Structured error left and no single effect explains it: two that mask each other might. Tried

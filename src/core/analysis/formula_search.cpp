@@ -379,7 +379,7 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
 // Most explanatory first; where two explain the same, the simpler formula.
 void orderProposals(std::vector<std::pair<FormulaProposal, int>>& proposals, double tie) {
   std::sort(proposals.begin(), proposals.end(), [&](const auto& a, const auto& b) {
-    const bool a_missing = a.first.verdict == "missing", b_missing = b.first.verdict == "missing";
+    const bool a_missing = a.first.verdict == Verdict::kMissing, b_missing = b.first.verdict == Verdict::kMissing;
     if (a_missing != b_missing) return a_missing;
     const double ea = a.first.held_out_error_rms, eb = b.first.held_out_error_rms;
     if (std::abs(ea - eb) <= tie * std::min(ea, eb) && a.second != b.second) return a.second < b.second;
@@ -421,10 +421,10 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
   const std::vector<bool> rejected = holmRejected(p_values, ranking.significance);
   for (std::size_t i = 0; i < proven.size(); ++i) {
     FormulaProposal& p = proven[i].first;
-    if (p.verdict != "missing") continue;
+    if (p.verdict != Verdict::kMissing) continue;
     const std::string demoted = holmDemotion(p.error_reduction, p.p_value, rejected[i], proven.size(), "formulas");
     if (demoted.empty()) continue;
-    p.verdict = "inconclusive";
+    p.verdict = Verdict::kInconclusive;
     p.explanation = p.explanation.substr(0, p.explanation.find(';')) + demoted;
   }
   orderProposals(proven, options.tie);
@@ -440,7 +440,7 @@ std::vector<FormulaProposal> proposeFormulas(const std::vector<GridSample>& grid
                                              double structured_floor, const EffectRankingOptions& ranking,
                                              const FormulaSearchOptions& options) {
   std::vector<FormulaProposal> proposals = searchOneTerm(grid, strokes, model, base, ranking, options);
-  if (options.max_terms < 2 || proposals.empty() || proposals.front().verdict != "missing") return proposals;
+  if (options.max_terms < 2 || proposals.empty() || proposals.front().verdict != Verdict::kMissing) return proposals;
   const FormulaProposal& first = proposals.front();
   if (first.held_out.rms <= structured_floor) return proposals;
   // Structured error left after the first term: a second one, proven against the model with the first.
@@ -448,7 +448,7 @@ std::vector<FormulaProposal> proposeFormulas(const std::vector<GridSample>& grid
   extended.custom_effects.push_back(first.spec());
   std::vector<FormulaProposal> second =
       searchOneTerm(grid, strokes, extended, first.held_out, ranking, options);
-  if (!second.empty() && second.front().verdict == "missing") {
+  if (!second.empty() && second.front().verdict == Verdict::kMissing) {
     second.front().together_with = first.name;
     second.front().explanation += " (together with '" + first.name + "')";
     proposals.insert(proposals.begin() + 1, std::move(second.front()));
@@ -469,7 +469,7 @@ void addFormulaProposals(const std::vector<GridSample>& grid, const StrokeSegmen
                                        options);
   std::vector<const FormulaProposal*> add;
   for (const auto& p : ranking->proposals) {
-    if (p.verdict == "missing" && (add.empty() || p.together_with == add.back()->name)) add.push_back(&p);
+    if (p.verdict == Verdict::kMissing && (add.empty() || p.together_with == add.back()->name)) add.push_back(&p);
   }
   const auto bar = [](double pa) {
     char text[32];
@@ -483,7 +483,7 @@ void addFormulaProposals(const std::vector<GridSample>& grid, const StrokeSegmen
     return;
   }
   for (auto& p : ranking->proposals) {
-    if (p.verdict == "missing" && &p != add.front() && p.together_with.empty()) {
+    if (p.verdict == Verdict::kMissing && &p != add.front() && p.together_with.empty()) {
       p.explanation += " (an alternative to '" + add.front()->name + "', which explains more)";
     }
   }
@@ -504,7 +504,7 @@ void addFormulaProposals(const std::vector<GridSample>& grid, const StrokeSegmen
       superseded.push_back(step.add);
       for (auto& c : ranking->candidates) {
         if (c.effect != step.add) continue;
-        c.verdict = "not_needed";
+        c.verdict = Verdict::kNotNeeded;
         c.explanation += "; but with the proposed '" + add.front()->name + "' it changes the held-out error by only " +
                          std::to_string(static_cast<int>(std::lround(100.0 * keep.error_reduction))) +
                          " %: the formula explains what it took part of";

@@ -8,6 +8,7 @@
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/analysis/verdict.h"
 
 namespace die_cushion_ident {
 
@@ -17,7 +18,7 @@ struct CandidateEffect {
   /// 1 - (held-out free-run error with the effect) / (without): 0.62 = 62 % less error. Negative when the
   /// extended model does worse on cycles it was not fitted to.
   double error_reduction = 0.0;
-  std::string verdict;                          ///< "missing", "not_needed" or "inconclusive"
+  Verdict verdict = Verdict::kInconclusive;
   std::string explanation;                      ///< one line: the physics, and why the verdict
   std::vector<IdentifiedParameter> parameters;  ///< the effect's parameters, fitted on all the data
   int held_out_cycles = 0;
@@ -35,7 +36,7 @@ struct FormulaProposal {
   double breakpoint = std::numeric_limits<double>::quiet_NaN();  ///< in the signal's SI unit; NaN: none
   double error_reduction = 0.0;  ///< held-out free-run error, relative to the model it extends
   double held_out_error_rms = 0.0;  ///< [Pa] with the term
-  std::string verdict;              ///< missing | not_needed | inconclusive
+  Verdict verdict = Verdict::kInconclusive;
   int held_out_cycles = 0;
   double t_statistic = 0.0;
   double p_value = 1.0;
@@ -95,7 +96,7 @@ struct EffectRankingOptions {
 
 /// A verdict on an extension of a model and its reason, to follow the extension's physics ("; ...").
 struct HeldOutVerdict {
-  std::string verdict;  ///< missing | not_needed | inconclusive
+  Verdict verdict = Verdict::kInconclusive;
   std::string reason;
 };
 
