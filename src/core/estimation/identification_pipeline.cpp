@@ -17,7 +17,6 @@ IdentificationPipeline::IdentificationPipeline(const IdentificationConfig& confi
 }
 
 UniformResampler::PushResult IdentificationPipeline::push(InputStream stream, const StreamSample& sample) {
-  ++messages_;
   StreamSample corrected = sample;
   corrected.stamp -= delays_[static_cast<int>(stream)];
   if (stream == InputStream::kValve) predictSpool(&corrected);
@@ -48,7 +47,6 @@ void IdentificationPipeline::reset() {
   identifier_.reset();
   resampled_.clear();
   grid_.clear();
-  messages_ = 0;
   spool_predictor_.reset();
   last_valve_stamp_ = -std::numeric_limits<double>::infinity();
   last_voltage_ = last_measured_spool_ = 0.0;

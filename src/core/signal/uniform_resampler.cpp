@@ -48,7 +48,6 @@ void UniformResampler::reset() {
   pending_discontinuity_ = false;
   next_index_ = 0;
   restarts_ = 0;
-  emitted_ = 0;
   held_.clear();
 }
 
@@ -267,7 +266,6 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     g.discontinuity = pending_discontinuity_;
     pending_discontinuity_ = false;
     out->push_back(g);
-    ++emitted_;
     ++next_index_;
 
     const double t_next = static_cast<double>(next_index_) * dt;

@@ -52,8 +52,7 @@ class HydraulicIdentifier {
   ParameterVector physicalParameters() const;
   const HydraulicModel& model() const { return model_; }
   const IdentificationConfig& config() const { return config_; }
-  /// The newest regression row (valid or not) and whether the last step updated the estimator.
-  const RegressionRow& lastRow() const { return row_; }
+  /// Whether the last identification step updated the estimator.
   bool lastStepUpdated() const { return last_step_updated_; }
   /// RLS updates since the last (re)start (cheap; estimate() also reports it).
   std::uint64_t updates() const { return rls_->updates(); }

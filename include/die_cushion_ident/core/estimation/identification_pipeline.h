@@ -46,7 +46,6 @@ class IdentificationPipeline {
   const HydraulicIdentifier& identifier() const { return identifier_; }
   HydraulicIdentifier& identifier() { return identifier_; }
   const UniformResampler& resampler() const { return resampler_; }
-  std::uint64_t messages() const { return messages_; }
 
  private:
   void consume();
@@ -60,7 +59,6 @@ class IdentificationPipeline {
   double sample_period_;
   StepCallback on_step_;
   GridCallback on_grid_;
-  std::uint64_t messages_ = 0;
   ServoValve spool_predictor_;
   double max_gap_;
   double last_valve_stamp_ = -std::numeric_limits<double>::infinity();

@@ -100,7 +100,6 @@ class UniformResampler {
 
   const StreamHealth& health(InputStream stream) const { return health_[static_cast<int>(stream)]; }
   std::uint64_t restarts() const { return restarts_; }
-  std::uint64_t emitted() const { return emitted_; }
   const Config& config() const { return config_; }
 
  private:
@@ -126,7 +125,6 @@ class UniformResampler {
   bool pending_discontinuity_ = false;
   std::int64_t next_index_ = 0;  // grid index of the next sample to emit
   std::uint64_t restarts_ = 0;
-  std::uint64_t emitted_ = 0;
   struct Held {
     InputStream stream;
     StreamSample sample;

@@ -104,7 +104,6 @@ class ValveSweep {
   bool running() const { return state_ == State::kRunning; }
   const std::string& abortReason() const { return abort_reason_; }
   const SweepRequest& request() const { return request_; }
-  const SweepLimits& limits() const { return limits_; }
   /// Index of the frequency being measured and its value [Hz] (progress).
   int currentIndex() const { return index_; }
   double currentFrequency() const;
