@@ -84,12 +84,9 @@ Options parseArguments(int argc, char** argv) {
       o.propose = true;
     } else if (a == "--jobs") {
       const std::string text = value();
-      char* end = nullptr;
-      const long jobs = std::strtol(text.c_str(), &end, 10);
-      if (end == text.c_str() || *end != '\0' || jobs < 1 || jobs > 256) {
-        fail(2, "--jobs needs a whole number of threads in [1, 256], got '" + text + "'\n" + kUsage);
-      }
-      o.jobs = static_cast<int>(jobs);
+      const auto jobs = wholeNumberIn(text, 1, 256);
+      if (!jobs) fail(2, "--jobs needs a whole number of threads in [1, 256], got '" + text + "'\n" + kUsage);
+      o.jobs = static_cast<int>(*jobs);
     } else if (!a.empty() && a[0] == '-') {
       fail(2, "unknown option " + a + "\n" + kUsage);
     } else if (o.bag.empty()) {

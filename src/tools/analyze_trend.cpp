@@ -68,16 +68,6 @@ Options parseArguments(int argc, char** argv) {
       if (i + 1 >= argc) fail(2, a + " needs a value\n" + kUsage);
       return argv[++i];
     };
-    const auto number = [&](double low, double high) {
-      const std::string text = value();
-      char* end = nullptr;
-      const double v = std::strtod(text.c_str(), &end);
-      if (end == text.c_str() || *end != '\0' || !(v >= low && v <= high)) {
-        fail(2, a + " must be a number in [" + formatted("%g", low) + ", " + formatted("%g", high) + "], got '" +
-                    text + "'\n" + kUsage);
-      }
-      return v;
-    };
     if (a == "--help" || a == "-h") {
       std::cout << kUsage;
       std::exit(0);
@@ -89,9 +79,15 @@ Options parseArguments(int argc, char** argv) {
       o.effects = value();
       o.effects_given = true;
     } else if (a == "--jobs") {
-      o.jobs = static_cast<int>(number(1, 256));
+      const std::string text = value();
+      const auto jobs = wholeNumberIn(text, 1, 256);
+      if (!jobs) fail(2, "--jobs must be a whole number of bags side by side in [1, 256], got '" + text + "'\n" + kUsage);
+      o.jobs = static_cast<int>(*jobs);
     } else if (a == "--false-alarm-rate") {
-      o.false_alarm_rate = number(1e-9, 0.5);
+      const std::string text = value();
+      const auto rate = numberIn(text, 1e-9, 0.5);
+      if (!rate) fail(2, "--false-alarm-rate must be a probability in [1e-9, 0.5], got '" + text + "'\n" + kUsage);
+      o.false_alarm_rate = *rate;
     } else if (a == "--quiet") {
       o.quiet = true;
     } else if (!a.empty() && a[0] == '-') {
@@ -324,7 +320,7 @@ int run(int argc, char** argv) {
     BagJob& job = jobs[pending[k]];
     analyse(job, o, analyze_bag, threads_each);
     std::lock_guard<std::mutex> lock(log_mutex);
-    log(formatted("%.0f", ++done) + " of " + std::to_string(pending.size()) + ": " +
+    log(std::to_string(++done) + " of " + std::to_string(pending.size()) + ": " +
         fs::path(job.bag).filename().string() + (job.failed ? " skipped: " + job.reason : formatted(" (%.1f s)", job.seconds)));
   });
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -3,6 +3,8 @@
 #include <sys/stat.h>
 
 #include <cerrno>
+#include <cstdlib>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -18,6 +20,23 @@ inline std::vector<std::string> splitList(const std::string& text) {
     if (!item.empty()) out.push_back(item);
   }
   return out;
+}
+
+/// The whole of `text` as a number in [low, high]; nullopt for anything else (empty, trailing characters,
+/// out of range, NaN).
+inline std::optional<double> numberIn(const std::string& text, double low, double high) {
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || !(value >= low && value <= high)) return std::nullopt;
+  return value;
+}
+
+/// The whole of `text` as a whole number in [low, high]; nullopt for anything else ("2.5" included).
+inline std::optional<long> wholeNumberIn(const std::string& text, long low, long high) {
+  char* end = nullptr;
+  const long value = std::strtol(text.c_str(), &end, 10);
+  if (end == text.c_str() || *end != '\0' || value < low || value > high) return std::nullopt;
+  return value;
 }
 
 /// Creates `path` and its missing parents (mkdir -p); true when it is a directory afterwards.

@@ -93,11 +93,9 @@ int run(int argc, char** argv) {
       return argv[++i];
     };
     const auto count = [&](int lowest) {
-      const std::string v = value();
-      char* end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || n < lowest || n > 1000) fail(2, a + " must be a whole number >= " + std::to_string(lowest));
-      return static_cast<int>(n);
+      const auto n = wholeNumberIn(value(), lowest, 1000);
+      if (!n) fail(2, a + " must be a whole number >= " + std::to_string(lowest));
+      return static_cast<int>(*n);
     };
     if (a == "--help" || a == "-h") {
       std::cout << kUsage;
