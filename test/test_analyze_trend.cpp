@@ -50,6 +50,7 @@ TEST(AnalyzeTrend, FindsTheRisingLeakageWithinThreeRecordingsAndReusesResults) {
   EXPECT_EQ(t["recordings"].as<int>(), kOnset + 3);
   EXPECT_EQ(t["analysed_now"].as<int>(), kOnset + 3);
   ASSERT_EQ(t["changes"].size(), 1u) << first.output;
+  EXPECT_TRUE(t["verdict_changes"].IsSequence());  // apart, so that every `changes` entry has the contract's keys
   const YAML::Node change = t["changes"][0];
   EXPECT_EQ(change["parameter"].as<std::string>(), "leakage_conductance");
   EXPECT_EQ(change["start"].as<std::string>(), "2026-03-12T00:00:00Z");

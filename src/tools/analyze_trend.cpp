@@ -388,7 +388,10 @@ int run(int argc, char** argv) {
     ++changes;
   }
   // A verdict change: an effect `missing` in the last recordings (at least 2 in a row) after at least 3
-  // recordings where it was not.
+  // recordings where it was not. In a list of its own: `changes` keeps the contract's entry shape
+  // (parameter, start, start_stamp, before, after, unit, explanation) for whoever reads it.
+  yaml << YAML::EndSeq;
+  yaml << YAML::Key << "verdict_changes" << YAML::Value << YAML::BeginSeq;
   for (const auto& effect : effects) {
     std::vector<std::pair<double, bool>> missing;
     for (const auto& r : rows) {
