@@ -138,13 +138,12 @@ HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeS
   return fitOnStretches(grid, config, {strokes.range(first_cycle, last_cycle)});
 }
 
-std::vector<std::vector<double>> cycleJackknifeReplicates(const std::vector<GridSample>& grid,
-                                                          const StrokeSegmentation& strokes,
-                                                          const IdentificationConfig& config, std::size_t n,
-                                                          int groups) {
+bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups) {
   const int cycles = strokes.cycles;
   const int g_count = std::min(groups, cycles);
-  if (g_count < 4 || n == 0) return {};
+  if (g_count < 4 || estimate->parameters.empty()) return false;
+  const std::size_t n = estimate->parameters.size();
   const auto all = strokes.range(INT_MIN, INT_MAX);
   std::vector<std::vector<double>> replicates;
   for (int g = 0; g < g_count; ++g) {
@@ -156,20 +155,11 @@ std::vector<std::vector<double>> cycleJackknifeReplicates(const std::vector<Grid
     if (left_out.first > all.first) kept.emplace_back(all.first, left_out.first);
     if (all.second > left_out.second) kept.emplace_back(left_out.second, all.second);
     const HydraulicEstimate e = fitOnStretches(grid, config, kept);
-    if (e.updates == 0 || e.parameters.size() != n) return {};
+    if (e.updates == 0 || e.parameters.size() != n) return false;
     std::vector<double> values(n);
     for (std::size_t k = 0; k < n; ++k) values[k] = e.parameters[k].value;
     replicates.push_back(std::move(values));
   }
-  return replicates;
-}
-
-bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups) {
-  const std::size_t n = estimate->parameters.size();
-  const auto replicates = cycleJackknifeReplicates(grid, strokes, config, n, groups);
-  if (replicates.empty()) return false;
-  const double g_count = static_cast<double>(replicates.size());
   for (std::size_t k = 0; k < n; ++k) {
     double mean = 0.0;
     for (const auto& r : replicates) mean += r[k] / g_count;

@@ -43,20 +43,12 @@ HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors&
 HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                               const IdentificationConfig& config, int first_cycle, int last_cycle);
 
-/// The delete-a-group jackknife over press cycles: the cycles split into `groups` contiguous groups (at most
-/// one per cycle), in time order, the model refitted without each. One vector of parameter values per
-/// group; empty with fewer than 4 cycles or a refit that fails.
-std::vector<std::vector<double>> cycleJackknifeReplicates(const std::vector<GridSample>& grid,
-                                                          const StrokeSegmentation& strokes,
-                                                          const IdentificationConfig& config, std::size_t parameters,
-                                                          int groups = 10);
-
 /// Replaces the standard deviations of `estimate` (a fit on the whole recording) by a delete-a-group
 /// jackknife over press cycles: the cycles split into `groups` contiguous groups (at most one per cycle),
 /// the model refitted without each, se^2 = (G-1)/G sum_g (theta_(g) - mean)^2. Cycles are the independent
-/// units, so the correlation of the errors within a stroke and the error of the model itself are in it;
-/// the RLS covariance knows neither (its overlap factor was a guess, right only where the noise enters
-/// as assumed). False, and nothing changed, with fewer than 4 cycles or a refit that fails.
+/// units, so the correlation of the errors within a stroke and the error of the model itself are in it.
+/// The reported stds (Newey-West) are checked against it in test_uncertainty_calibration. False, and
+/// nothing changed, with fewer than 4 cycles or a refit that fails.
 bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                          const IdentificationConfig& config, HydraulicEstimate* estimate, int groups = 10);
 
