@@ -12,7 +12,7 @@
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
 #include "die_cushion_ident/core/util/formatted.h"
-#include "die_cushion_ident/core/analysis/formula_search.h"
+#include "die_cushion_ident/core/monitoring/live_diagnostics.h"
 #include "message_conversions.h"
 
 namespace die_cushion_ident {
@@ -20,14 +20,6 @@ namespace die_cushion_ident {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// Weight of a new squared residual in the running means: about one press cycle (2.6 s) of 2 ms samples,
-// long enough to average over the phases, short enough to forget the estimator's start.
-constexpr double kResidualWeight = 1.0 / 1300.0;
-// All inputs silent this long [s of ROS time] is an error; shorter silences are scheduling, not a fault
-// (a 25 ms stall of a simulation at 40x real time is 1 s of stamps).
-constexpr double kSilenceLimit = 1.0;
-// RLS updates (10 ms each, only while excited) before the model comparison counts: about one stroke.
-constexpr std::uint64_t kUpdatesBeforeComparison = 100;
 
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
@@ -42,6 +34,12 @@ const char* pushResultText(UniformResampler::PushResult result) {
     default:
       return "";
   }
+}
+
+/// Copies a core health report into a diagnostic_updater status (HealthLevel has diagnostic_msgs' values).
+void fill(diagnostic_updater::DiagnosticStatusWrapper& status, const HealthReport& report) {
+  status.summary(static_cast<unsigned char>(report.level), report.message);
+  for (const auto& [key, value] : report.values) status.add(key, value);
 }
 
 std::string join(const std::vector<std::string>& items, const char* separator) {
@@ -131,16 +129,15 @@ void IdentificationNode::rebuildPipeline() {
       [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });
   pipeline_->setStepCallback(
       [this](const HydraulicIdentifier& identifier) { onIdentificationStep(identifier); });
-  free_run_ = std::make_unique<FreeRunPressure>(pipeline_->identifier().model(), config_.min_pressure);
+  LiveMonitorSettings monitoring;
+  monitoring.ranking_window = settings_.effect_ranking_window;
+  monitoring.ranking_period = settings_.effect_ranking_period;
+  if (monitor_) {
+    monitor_->restart(config_, pipeline_->identifier().model());
+  } else {
+    monitor_ = std::make_unique<LiveModelMonitor>(config_, pipeline_->identifier().model(), monitoring);
+  }
   if (feed_forward_) feed_forward_->modelChanged();
-  classifier_.reset();
-  window_.clear();
-  ranking_.reset();
-  ++ranking_generation_;
-  last_ranking_time_ = -1e18;
-  residual_square_mean_ = 0.0;
-  residual_samples_ = 0;
-  std::fill(std::begin(phase_square_error_), std::end(phase_square_error_), 0.0);
 }
 
 // ---- inputs ----
@@ -189,12 +186,11 @@ void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
 
 void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
   const auto result = pipeline_->push(stream, sample);
-  applyPendingTopicDelays();
+  applyTopicDelayCorrection();
   if (result == UniformResampler::PushResult::kRestarted) {
     ROS_WARN("die_cushion_ident: %s stamp jumped (bag restarted?): identification restarted",
              inputStreamName(stream));
-    free_run_->resync();
-    classifier_.reset();
+    monitor_->resync();
   } else if (result == UniformResampler::PushResult::kHeld) {
     // A stamp far off the time base: held until the other topics confirm the jump; counted as wild by
     // the resampler when they do not.
@@ -210,39 +206,10 @@ void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
 // ---- identification and model comparison ----
 
 void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier) {
-  last_grid_ = g;
-  window_.push_back(g);
-  const auto capacity =
-      static_cast<std::size_t>(settings_.effect_ranking_window / config_.resampler.sample_period);
-  while (window_.size() > capacity) window_.pop_front();
-  collectRanking();
-  if (g.t - last_ranking_time_ >= settings_.effect_ranking_period || g.t < last_ranking_time_) {
-    last_ranking_time_ = g.t;
-    rankEffects();
-  }
+  if (auto ranking = monitor_->addSample(g, identifier)) publishRanking(*ranking);
   analyzeStepTest(g.t);
-  phase_ = classifier_.classify(g);
-  modelled_pressure_ = free_run_->step(g, identifier.physicalParameters());
-  // What keeps the comparison from running, for the adequacy diagnostic (instead of waiting in silence).
-  comparison_blocker_ = !g.complete           ? "a topic is silent or stale (see the input diagnostics)"
-                        : !std::isfinite(g.v) ? "no velocity (the position topic carries none and it cannot be "
-                                                "derived: positions missing or not finite)"
-                        : !std::isfinite(g.y) ? "no spool position (not measured and not predictable)"
-                        : g.p < config_.min_pressure
-                            ? "the pressure is below min_pressure, where the model is not trusted"
-                            : "";
-  // The comparison counts once the estimator has seen some excitation; before, the model is its start value.
-  const bool estimator_started = identifier.updates() >= kUpdatesBeforeComparison;
-  feed_forward_->update(g, identifier.model(), identifier.physicalParameters(), estimator_started,
+  feed_forward_->update(g, identifier.model(), identifier.physicalParameters(), monitor_->estimatorStarted(),
                         last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr);
-  if (estimator_started && std::isfinite(modelled_pressure_) && !free_run_->anchoredThisStep() &&
-      std::isfinite(g.p)) {
-    const double square = (g.p - modelled_pressure_) * (g.p - modelled_pressure_);
-    const double w = std::max(kResidualWeight, 1.0 / static_cast<double>(++residual_samples_));
-    residual_square_mean_ += w * (square - residual_square_mean_);
-    double& phase_mean = phase_square_error_[static_cast<int>(phase_)];
-    phase_mean += kResidualWeight * 5.0 * (square - phase_mean);
-  }
 }
 
 void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identifier) {
@@ -270,34 +237,26 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
   if (markers) {
     steps_since_markers_ = 0;
     CushionView view;
-    view.position = last_grid_.x;
-    view.pressure = last_grid_.p;
-    view.simulation_error = std::sqrt(residual_square_mean_);
-    view.phase = phase_;
+    view.position = monitor_->lastSample().x;
+    view.pressure = monitor_->lastSample().p;
+    view.simulation_error = monitor_->simulationErrorRms();
+    view.phase = monitor_->phase();
     markers_pub_.publish(cushionMarkers(config_.geometry, view, e, frame_id_, stamp));
   }
   if (comparison) {
+    const GridSample& g = monitor_->lastSample();
     const ModelComparison msg =
-        toModelComparisonMsg(last_grid_, modelled_pressure_, phase_, std::sqrt(residual_square_mean_),
-                             e.equation_error_rms, ros::Time(std::max(last_grid_.t, 0.0)));
+        toModelComparisonMsg(g, monitor_->modelledPressure(), monitor_->phase(), monitor_->simulationErrorRms(),
+                             e.equation_error_rms, ros::Time(std::max(g.t, 0.0)));
     // Only what was computed: while the model cannot run, the adequacy diagnostic says why instead.
     if (isComputed(msg)) comparison_pub_.publish(msg);
   }
 }
 
-void IdentificationNode::estimateTopicDelays(const std::vector<GridSample>& grid) {
-  if (config_.topicDelaysSet() || delay_estimate_) return;
-  TopicDelayEstimate estimate = die_cushion_ident::estimateTopicDelays(grid, config_);
-  if (!estimate.valid) return;  // not enough excitation in the window yet: try at the next ranking
-  delay_estimate_ = estimate;
-  if (!estimate.significant(config_.resampler.sample_period)) return;
-  delays_pending_ = true;
-}
-
-void IdentificationNode::applyPendingTopicDelays() {
-  if (!delays_pending_) return;
-  delays_pending_ = false;
-  config_.topic_delays = delay_estimate_->delays;
+void IdentificationNode::applyTopicDelayCorrection() {
+  const auto delays = monitor_->takeDelayCorrection();
+  if (!delays) return;
+  config_.topic_delays = *delays;
   ROS_WARN("die_cushion_ident: the topics' stamps are offset (position %+.2f ms, valve %+.2f ms against "
            "pressure, estimated from the data): corrected, identification restarted; set ~topic_delays to "
            "fix them",
@@ -305,60 +264,33 @@ void IdentificationNode::applyPendingTopicDelays() {
   rebuildPipeline();
 }
 
-void IdentificationNode::rankEffects() {
-  if (ranking_job_.valid()) return;  // the previous one is still running: the next period tries again
-  std::vector<GridSample> grid(window_.begin(), window_.end());
-  estimateTopicDelays(grid);
-  ranking_job_ = std::async(std::launch::async, [grid = std::move(grid), config = config_,
-                                                 generation = ranking_generation_] {
-    const auto started = std::chrono::steady_clock::now();
-    RankingJob job;
-    job.generation = generation;
-    const StrokeSegmentation strokes = segmentStrokes(grid);
-    job.cycles = strokes.cycles;
-    job.result = die_cushion_ident::rankEffects(grid, strokes, config);
-    // The formula search only where structured error is left, as offline without --propose.
-    if (job.result.residual_unexplained) addFormulaProposals(grid, strokes, config, &job.result);
-    job.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    return job;
-  });
-}
-
-void IdentificationNode::collectRanking() {
-  if (!ranking_job_.valid() || ranking_job_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
-  RankingJob job = ranking_job_.get();
-  if (job.generation != ranking_generation_) return;  // started before the pipeline was rebuilt
-  publishRanking(std::move(job));
-}
-
-void IdentificationNode::publishRanking(RankingJob job) {
-  last_ranking_seconds_ = job.seconds;
-  ROS_DEBUG("die_cushion_ident: effect ranking took %.3f s on its own thread", job.seconds);
-  ranking_ = std::move(job.result);
+void IdentificationNode::publishRanking(const LiveRanking& ranking) {
+  ROS_DEBUG("die_cushion_ident: effect ranking took %.3f s on its own thread", ranking.seconds);
+  const EffectRankingResult& result = ranking.result;
   die_cushion_ident::EffectRanking msg;
-  msg.header.stamp = ros::Time(std::max(last_grid_.t, 0.0));
-  msg.cycles = job.cycles;
-  for (const auto& c : ranking_->candidates) {
+  msg.header.stamp = ros::Time(std::max(monitor_->lastSample().t, 0.0));
+  msg.cycles = ranking.cycles;
+  for (const auto& c : result.candidates) {
     msg.effects.push_back(c.effect);
     msg.error_reduction.push_back(c.error_reduction);
     msg.verdicts.push_back(verdictName(c.verdict));
     msg.explanations.push_back(c.explanation);
   }
-  msg.held_out_error_rms = ranking_->base_error_rms;
-  msg.best_error_rms = ranking_->best_error_rms;
-  msg.noise_rms = ranking_->noise_rms;
-  msg.residual_unexplained = ranking_->residual_unexplained;
-  for (const auto& step : ranking_->steps) {
+  msg.held_out_error_rms = result.base_error_rms;
+  msg.best_error_rms = result.best_error_rms;
+  msg.noise_rms = result.noise_rms;
+  msg.residual_unexplained = result.residual_unexplained;
+  for (const auto& step : result.steps) {
     msg.steps.push_back(step.add);
     msg.step_error_rms.push_back(step.held_out_error_rms);
   }
-  for (const auto& p : ranking_->proposals) {
+  for (const auto& p : result.proposals) {
     msg.proposals.push_back(p.spec());
     msg.proposal_error_reduction.push_back(p.error_reduction);
     msg.proposal_verdicts.push_back(verdictName(p.verdict));
     msg.proposal_explanations.push_back(p.explanation);
   }
-  msg.conclusion = ranking_->conclusion;
+  msg.conclusion = result.conclusion;
   ranking_pub_.publish(msg);
 }
 
@@ -383,6 +315,7 @@ bool IdentificationNode::startStepTest(StartStepTest::Request& req, StartStepTes
     return true;
   }
   step_status_ = "running";
+  step_failed_ = false;
   step_timer_ = nh_.createTimer(ros::Duration(0.5 * limits_.command_period), &IdentificationNode::onStepTimer, this);
   ROS_INFO("die_cushion_ident: %s", res.message.c_str());
   return true;
@@ -396,6 +329,7 @@ void IdentificationNode::onStepTimer(const ros::TimerEvent&) {
   if (step_test_.running()) return;
   step_timer_.stop();
   if (step_test_.state() == ValveStepTest::State::kAborted) {
+    step_failed_ = true;
     step_status_ = "aborted: " + step_test_.abortReason();
     ROS_WARN("die_cushion_ident: step test %s", step_status_.c_str());
   } else {
@@ -407,40 +341,24 @@ void IdentificationNode::onStepTimer(const ros::TimerEvent&) {
 void IdentificationNode::analyzeStepTest(double grid_time) {
   if (!(grid_time >= step_analysis_due_)) return;
   step_analysis_due_ = std::numeric_limits<double>::infinity();
-  const std::vector<GridSample> grid(window_.begin(), window_.end());
+  const std::vector<GridSample> grid(monitor_->window().begin(), monitor_->window().end());
   for (const StepResponse& r : findStepResponses(grid)) {
     if (std::abs(r.start - step_test_.stepTime()) > 0.05) continue;
     last_step_response_ = r;
+    step_failed_ = false;
     step_status_ = formatted("t63 %.1f ms", r.t63 * 1e3);
     ROS_INFO("die_cushion_ident: step test: %.1f -> %.1f bar, t63 %.1f ms (sample_period at most %.2f ms)",
              r.initial_pressure * 1e-5, r.final_pressure * 1e-5, r.t63 * 1e3, r.recommendedMaxSamplingTime() * 1e3);
     return;
   }
+  step_failed_ = true;
   step_status_ = "the pressure's answer could not be timed (it did not settle, changed less than 2 bar, or "
                  "the cushion moved)";
 }
 
 void IdentificationNode::diagnoseStepTest(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  using diagnostic_msgs::DiagnosticStatus;
-  if (!last_step_response_) {
-    const bool failed = step_status_.rfind("aborted", 0) == 0 || step_status_.rfind("the pressure's", 0) == 0;
-    status.summary(failed ? DiagnosticStatus::WARN : DiagnosticStatus::OK, step_status_);
-    return;
-  }
-  const StepResponse& r = *last_step_response_;
-  const bool too_slow = config_.resampler.sample_period > r.recommendedMaxSamplingTime();
-  status.summary(too_slow ? DiagnosticStatus::WARN : DiagnosticStatus::OK,
-                 too_slow ? formatted("sample_period %.4g s exceeds 0.1 t63", config_.resampler.sample_period) +
-                                formatted(" = %.4g s: the identification cannot resolve the pressure build-up",
-                                          r.recommendedMaxSamplingTime())
-                          : step_status_);
-  status.add("t63 [s]", r.t63);
-  status.add("recommended max sampling time [s]", r.recommendedMaxSamplingTime());
-  status.add("step voltage [V]", r.step_voltage);
-  status.add("initial pressure [bar]", r.initial_pressure * 1e-5);
-  status.add("final pressure [bar]", r.final_pressure * 1e-5);
-  status.add("last test", step_status_);
+  fill(status, stepTestHealth(last_step_response_, step_status_, step_failed_, config_.resampler.sample_period));
 }
 
 // ---- valve sweep ----
@@ -591,240 +509,53 @@ bool IdentificationNode::reset(Reset::Request&, Reset::Response& res) {
 
 // ---- diagnostics ----
 
-double IdentificationNode::allInputsSilentFor() const {
-  double youngest = std::numeric_limits<double>::infinity();
-  const double now = ros::Time::now().toSec();
-  for (int s = 0; s < kInputStreamCount; ++s) {
-    const StreamHealth& h = pipeline_->resampler().health(static_cast<InputStream>(s));
-    if (h.received > 0) youngest = std::min(youngest, now - h.last_stamp);
-  }
-  return youngest;
-}
-
 void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status,
                                        InputStream stream) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const StreamHealth& h = pipeline_->resampler().health(stream);
-  const double age = ros::Time::now().toSec() - h.last_stamp;
   const int s = static_cast<int>(stream);
-  status.add("topic", nh_.resolveName(inputStreamName(stream)));
-  status.add("rate [Hz]", formatted("%.1f", h.rate()));
-  status.add("received", h.received);
-  status.add("rejected", rejected_[s]);
-  status.add("last rejection", last_rejection_[s].empty() ? "none" : last_rejection_[s]);
-  status.add("late", h.late);
-  status.add("gaps", h.gaps);
-  status.add("stamp jitter [ms]", formatted("%.3f", h.interval_std * 1e3));
-  status.add("longest interval [ms]", formatted("%.1f", h.max_interval * 1e3));
-  status.add("age of last stamp [s]", formatted("%.3f", age));
-  status.add("implausible values", h.implausible);
-  status.add("wild stamps", h.wild_stamps);
+  InputState input;
+  input.stream = stream;
+  input.topic = nh_.resolveName(inputStreamName(stream));
+  input.health = pipeline_->resampler().health(stream);
+  input.now = ros::Time::now().toSec();
+  input.rejected = rejected_[s];
+  input.last_rejection = last_rejection_[s];
   // Wild stamps since the last report: the topic's clock jumped while the others' did not.
-  const bool wild_now = h.wild_stamps > wild_reported_[s];
-  wild_reported_[s] = h.wild_stamps;
-  if (wild_now) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                   "stamps " + formatted("%+.3g s", h.last_wild_offset) +
-                       " off the other topics (its clock jumped): " + std::to_string(h.wild_stamps) +
-                       " messages rejected so far; the identification goes on without them");
-  } else if (h.received == 0 && rejected_[s] == 0) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "no messages received");
-  } else if (h.accepted == 0) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "every message rejected: " + last_rejection_[s]);
-  } else if (h.stale) {
-    // Silent while the other topics run (judged on stamps, so a processing delay is not staleness).
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                   "stale: silent for " + formatted("%.2f s", age) + " while the other inputs run");
-  } else if (const double silent = allInputsSilentFor(); silent > kSilenceLimit) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                   "no input for " + formatted("%.2f s", silent) + " (all three topics silent)");
-  } else if (stream == InputStream::kValve && !(ros::Time::now().toSec() - spool_stamp_ < 1.0)) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "spool position not measured (NaN): predicted with the valve model");
-  } else if (rejected_[s] > 0) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   std::to_string(rejected_[s]) + " messages rejected, last: " + last_rejection_[s]);
-  } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "receiving at " + formatted("%.0f Hz", h.rate()));
-  }
+  input.new_wild_stamps = input.health.wild_stamps > wild_reported_[s];
+  wild_reported_[s] = input.health.wild_stamps;
+  input.all_inputs_silent_for = allInputsSilentFor(pipeline_->resampler(), input.now);
+  input.spool_age = input.now - spool_stamp_;
+  fill(status, inputHealth(input));
 }
 
 void IdentificationNode::diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const HydraulicEstimate e = pipeline_->identifier().estimate();
-  status.add("effects", e.effects.empty() ? std::string("none (base model)") : join(e.effects, ", "));
-  status.add("updates", e.updates);
-  status.add("steps without excitation", e.skipped_unexcited);
-  status.add("steps outside the model's validity", e.skipped_invalid);
-  double worst_relative_std = 0.0;
-  std::string problem;
-  for (const auto& p : e.parameters) {
-    status.add(p.name + " [" + p.unit + "]", formatted("%.4g", p.value) + " +/- " + formatted("%.2g", p.std));
-    if (!std::isfinite(p.value) || !std::isfinite(p.std)) problem = p.name + " is not finite";
-    if (p.value != 0.0) worst_relative_std = std::max(worst_relative_std, std::abs(p.std / p.value));
-  }
-  const double k = e.parameters[HydraulicModel::kBulkModulus].value;
-  // Effective bulk modulus of mineral oil with hoses: 0.3-2 GPa; entrained air can lower it further.
-  if (problem.empty() && e.updates > 100 && (k < 1e8 || k > 3e9)) {
-    problem = "bulk modulus " + formatted("%.3g Pa", k) + " is far outside the oil's range 1e8...3e9 Pa";
-  }
-  if (problem.empty() && e.updates > 100 && e.parameters[HydraulicModel::kValveFlowGain].value <= 0.0) {
-    problem = "valve flow gain is not positive";
-  }
-  if (problem.empty() && e.updates > 100 && e.parameters[HydraulicModel::kDeadVolume].value < 0.0) {
-    problem = "dead volume is negative";
-  }
-  status.add("largest relative std", formatted("%.3f", worst_relative_std));
-  if (!problem.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "implausible estimate: " + problem);
-  } else if (e.updates < 100) {
-    status.summary(
-        diagnostic_msgs::DiagnosticStatus::WARN,
-        "waiting for excitation (" + std::to_string(e.updates) + " updates; the press must stroke)");
-  } else if (worst_relative_std > 0.1) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "converging: a parameter still has " + formatted("%.0f %%", 100 * worst_relative_std) +
-                       " relative std");
-  } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "converged");
-  }
+  const HydraulicIdentifier& identifier = pipeline_->identifier();
+  fill(status, estimatorHealth(identifier.model(), identifier.estimate()));
 }
 
 void IdentificationNode::diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  status.add("sweep", sweepStateName(sweep_.state()));
-  status.add("model used for spool prediction", formatted("%.1f Hz", config_.valve.natural_frequency) +
-                                                    ", D " + formatted("%.2f", config_.valve.damping) +
-                                                    ", K " + formatted("%.4g 1/V", config_.valve.gain) +
-                                                    ", Td " +
-                                                    formatted("%.2f ms", config_.valve.dead_time * 1e3));
-  if (sweep_.running()) {
-    status.add("frequency [Hz]", formatted("%.1f", sweep_.currentFrequency()));
-    status.add("progress", std::to_string(sweep_.currentIndex()) + " of " +
-                               std::to_string(sweep_.request().frequencies.size()));
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "sweep running");
-    return;
-  }
-  if (sweep_.state() == ValveSweep::State::kAborted) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "last sweep aborted: " + sweep_.abortReason());
-    return;
-  }
-  if (sweep_.state() == ValveSweep::State::kFinished && !sweep_.fit().success) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "last sweep not usable: " + sweep_.fit().message);
-    return;
-  }
-  if (!last_valve_fit_.success) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "not identified yet (configured model in use)");
-    return;
-  }
-  const ServoValveFit& f = last_valve_fit_;
-  status.add("identified natural frequency [Hz]", formatted("%.2f", f.parameters.natural_frequency));
-  status.add("identified damping", formatted("%.3f", f.parameters.damping));
-  status.add("identified gain [1/V]", formatted("%.4g", f.parameters.gain));
-  status.add("identified dead time [ms]", formatted("%.3f", f.parameters.dead_time * 1e3));
-  status.add("points distorted", f.points_rejected);
-  if (f.reduced_chi_square > 10.0) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "identified, but the 2nd-order model misses the measured response (chi2/dof " +
-                       formatted("%.1f", f.reduced_chi_square) + ")");
-  } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "identified by the last sweep and in use");
-  }
+  fill(status, valveHealth(sweep_, config_.valve, last_valve_fit_));
 }
 
 void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const double rms = std::sqrt(residual_square_mean_);
-  status.add("simulation error rms [bar]", formatted("%.2f", rms * 1e-5));
-  status.add("equation error rms [bar/s]",
-             formatted("%.1f", pipeline_->identifier().estimate().equation_error_rms * 1e-5));
-  int worst = -1;
-  for (int i = 0; i < kStrokePhaseCount; ++i) {
-    status.add(
-        std::string("simulation error rms in ") + strokePhaseName(static_cast<StrokePhase>(i)) + " [bar]",
-        formatted("%.2f", std::sqrt(phase_square_error_[i]) * 1e-5));
-    if (worst < 0 || phase_square_error_[i] > phase_square_error_[worst]) worst = i;
-  }
-  std::string where = std::string("worst in ") + strokePhaseName(static_cast<StrokePhase>(worst));
-  if (std::isfinite(last_ranking_seconds_)) {
-    status.add("effect ranking duration", formatted("%.3f s (own thread)", last_ranking_seconds_));
-  }
-  if (ranking_) {
-    status.add("effect ranking", ranking_->conclusion);
-    for (const auto& c : ranking_->candidates) {
-      status.add("candidate " + c.effect,
-                 verdictName(c.verdict) + std::string(", ") + formatted("%.0f %% less error", 100 * c.error_reduction));
-    }
-    if (!ranking_->candidates.empty() && ranking_->candidates.front().verdict == Verdict::kMissing) {
-      where += "; suspected missing effect: " + ranking_->candidates.front().effect;
-    } else if (!ranking_->proposals.empty() && ranking_->proposals.front().verdict == Verdict::kMissing) {
-      where += "; proposed formula: " + ranking_->proposals.front().spec();
-    } else if (ranking_->residual_unexplained) {
-      where += "; not explained by the effect library: consider a custom effect";
-    }
-  }
-  if (residual_samples_ < 500) {
-    const std::uint64_t updates = pipeline_->identifier().updates();
-    std::string why;
-    if (updates < kUpdatesBeforeComparison) {
-      why = "the estimator has " + std::to_string(updates) + " of " + std::to_string(kUpdatesBeforeComparison) +
-            " updates (the press must stroke)";
-    } else if (comparison_blocker_[0] != '\0') {
-      why = std::string("the model cannot run: ") + comparison_blocker_;
-    } else {
-      why = std::to_string(residual_samples_) + " of 500 samples compared";
-    }
-    status.add("why no comparison yet", why);
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "not enough data yet: " + why);
-  } else if (rms > settings_.adequacy_error_error) {
-    status.summary(
-        diagnostic_msgs::DiagnosticStatus::ERROR,
-        "the model misses the pressure by " + formatted("%.1f bar", rms * 1e-5) + " rms, " + where);
-  } else if (rms > settings_.adequacy_warn_error) {
-    status.summary(
-        diagnostic_msgs::DiagnosticStatus::WARN,
-        "the model misses the pressure by " + formatted("%.1f bar", rms * 1e-5) + " rms, " + where);
-  } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK,
-                   "the model follows the pressure within " + formatted("%.1f bar", rms * 1e-5) + " rms");
-  }
+  fill(status, adequacyHealth(*monitor_, pipeline_->identifier().estimate().equation_error_rms,
+                              settings_.adequacy_warn_error, settings_.adequacy_error_error));
 }
 
 void IdentificationNode::diagnoseTiming(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto& applied = pipeline_->topicDelays();
-  for (int s = 0; s < kInputStreamCount; ++s) {
-    status.add(std::string("delay of ") + inputStreamName(static_cast<InputStream>(s)) + " stamps [ms]",
-               formatted("%+.2f", applied[s] * 1e3));
-  }
-  status.add("joint", settings_.joint_name.empty() ? std::string("(default)") : settings_.joint_name);
-  status.add("velocity derived from position [samples]", pipeline_->derivedVelocitySamples());
-  status.add("latency of the velocity stage [ms]", formatted("%.1f", pipeline_->velocityDelay() * 1e3));
-  if (joints_.ambiguous()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, joints_.ambiguity());
-    return;
-  }
-  if (config_.topicDelaysSet() && !delay_estimate_) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "topic delays configured (~topic_delays)");
-    return;
-  }
-  if (!delay_estimate_) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK,
-                   "clock offsets between the topics not estimated yet (needs strokes in the ranking window)");
-    return;
-  }
-  double largest = 0.0;
-  for (double d : delay_estimate_->delays) largest = std::max(largest, std::abs(d));
-  status.add("estimated position offset [ms]", formatted("%+.2f", delay_estimate_->delays[1] * 1e3));
-  status.add("estimated valve offset [ms]", formatted("%+.2f", delay_estimate_->delays[2] * 1e3));
-  if (largest > kLargeTopicDelay) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN,
-                   "topics stamped by different clocks: up to " + formatted("%.1f ms", largest * 1e3) +
-                       " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");
-  } else {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK,
-                   "topics in step (largest offset " + formatted("%.2f ms", largest * 1e3) + ")");
-  }
+  TimingState timing;
+  timing.applied_delays = pipeline_->topicDelays();
+  timing.joint_name = settings_.joint_name;
+  timing.derived_velocity_samples = pipeline_->derivedVelocitySamples();
+  timing.velocity_delay = pipeline_->velocityDelay();
+  if (joints_.ambiguous()) timing.joint_ambiguity = joints_.ambiguity();
+  timing.delays_configured = config_.topicDelaysSet();
+  timing.estimate = monitor_->topicDelayEstimate();
+  fill(status, timingHealth(timing));
 }
 
 void spinBatched(ros::CallbackQueue& queue, const IdentificationNode& node, const std::atomic<bool>& stop) {

@@ -21,11 +21,9 @@
 #include "die_cushion_ident/StartStepTest.h"
 #include "die_cushion_ident/StartSweep.h"
 #include "die_cushion_ident/ValveSignal.h"
-#include "die_cushion_ident/core/analysis/effect_ranking.h"
-#include "die_cushion_ident/core/analysis/free_run_pressure.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
-#include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
-#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/monitoring/health_report.h"
+#include "die_cushion_ident/core/monitoring/live_model_monitor.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/valve/valve_step_test.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
@@ -75,32 +73,16 @@ class IdentificationNode {
   bool setEffects(SetEffects::Request& request, SetEffects::Response& response);
   bool reset(Reset::Request& request, Reset::Response& response);
 
-  // The ranking (and the formula search) take up to seconds on a long window: they run on their own thread
-  // on a copy of the window, so that neither the input callbacks nor the sweep's supervision wait for them;
-  // the result is published from the first grid sample after it is ready. A rebuilt pipeline bumps the
-  // generation, and a ranking started before is dropped.
-  struct RankingJob {
-    EffectRankingResult result;
-    int cycles = 0;
-    double seconds = 0.0;  // wall-clock duration
-    int generation = 0;
-  };
-  /// Starts a ranking on the current window unless one is running; publishes a finished one.
-  void rankEffects();
-  void collectRanking();
-  void publishRanking(RankingJob job);
+  void publishRanking(const LiveRanking& ranking);
 
-  /// ROS time since the newest message of any input [s].
-  double allInputsSilentFor() const;
   void diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status, InputStream stream);
   void diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseTiming(diagnostic_updater::DiagnosticStatusWrapper& status);
-  /// Estimates the topics' clock offsets on the ranking window once (unless configured); a significant
-  /// offset is applied after the current message (the pipeline is rebuilt, so not from its own callback).
-  void estimateTopicDelays(const std::vector<GridSample>& grid);
-  void applyPendingTopicDelays();
+  /// Applies the clock offsets the monitor estimated (after the current message: the pipeline is rebuilt,
+  /// so not from its own callback).
+  void applyTopicDelayCorrection();
 
   ros::NodeHandle nh_, pnh_;
   IdentificationConfig config_;
@@ -109,8 +91,8 @@ class IdentificationNode {
 
   mutable std::mutex mutex_;
   std::unique_ptr<IdentificationPipeline> pipeline_;
-  std::unique_ptr<FreeRunPressure> free_run_;
-  StrokePhaseClassifier classifier_;
+  // The live model comparison and effect ranking (kept across rebuilds: a running ranking is dropped).
+  std::unique_ptr<LiveModelMonitor> monitor_;
   ValveSweep sweep_;
   ros::Timer sweep_timer_;
   bool sweep_commanding_ = false;  // the sweep timer runs (until the offset has been sent)
@@ -120,17 +102,9 @@ class IdentificationNode {
   double step_analysis_due_ = std::numeric_limits<double>::infinity();  // grid time to time the answer
   std::optional<StepResponse> last_step_response_;
   std::string step_status_ = "no step test run (~start_step_test)";
+  bool step_failed_ = false;  // aborted, or its answer could not be timed
   bool sweep_reported_ = false;  // the ended sweep's results have been published
   std::size_t published_points_ = 0;
-
-  // Latest comparison values (grid rate), published at the identification rate.
-  GridSample last_grid_;
-  double modelled_pressure_ = 0.0;
-  double residual_square_mean_ = 0.0;  // exponentially weighted over ~5 s of free-run samples
-  std::uint64_t residual_samples_ = 0;
-  StrokePhase phase_ = StrokePhase::kRest;
-  double phase_square_error_[kStrokePhaseCount] = {0, 0, 0, 0, 0, 0};  // per phase, same weighting
-  const char* comparison_blocker_ = "";  // why the last grid sample could not be compared ("" = it could)
 
   // Latest plant signals for the sweep's safety checks: values and their stamps [s].
   double pressure_ = std::numeric_limits<double>::quiet_NaN(), pressure_stamp_ = -1e18;
@@ -143,16 +117,6 @@ class IdentificationNode {
   std::string last_rejection_[kInputStreamCount];
 
   ros::Subscriber pressure_sub_, position_sub_, valve_sub_;
-  // Clock offsets between the topics: configured, or estimated once from the data.
-  std::optional<TopicDelayEstimate> delay_estimate_;
-  bool delays_pending_ = false;
-  // The last grid samples for the live effect ranking, and its latest result.
-  std::deque<GridSample> window_;
-  double last_ranking_time_ = -1e18;
-  std::optional<EffectRankingResult> ranking_;
-  std::future<RankingJob> ranking_job_;
-  int ranking_generation_ = 0;
-  double last_ranking_seconds_ = std::numeric_limits<double>::quiet_NaN();
   ros::Publisher ranking_pub_;
 
   ros::Publisher estimate_pub_, comparison_pub_, response_pub_, valve_model_pub_, command_pub_, markers_pub_;

@@ -1,0 +1,118 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <future>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "die_cushion_ident/core/analysis/effect_ranking.h"
+#include "die_cushion_ident/core/analysis/free_run_pressure.h"
+#include "die_cushion_ident/core/analysis/stroke_phase.h"
+#include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
+#include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
+#include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
+
+namespace die_cushion_ident {
+
+/// How the live model comparison judges and how often it ranks the effect library.
+struct LiveMonitorSettings {
+  double ranking_window = 120.0;  ///< [s] grid samples kept for the ranking (and the step test's timing)
+  double ranking_period = 30.0;   ///< [s] of grid time between rankings
+};
+
+/// One finished effect ranking of the live window (with the formula search where error is left).
+struct LiveRanking {
+  EffectRankingResult result;
+  int cycles = 0;        ///< press cycles in the window
+  double seconds = 0.0;  ///< wall-clock duration of the ranking [s]
+};
+
+/// The live model comparison of the node, free of ROS: runs the identified model freely next to the
+/// measurement on every grid sample, keeps the error per stroke phase, says why it cannot compare when it
+/// cannot, and ranks the effect library on a window of the last grid samples on its own thread.
+///
+/// The ranking takes up to seconds on a long window, so it runs on a copy of the window (std::async):
+/// nothing that feeds samples waits for it. restart() (a new model) drops a ranking started before it.
+class LiveModelMonitor {
+ public:
+  /// RLS updates (10 ms each, only while excited) before the comparison counts: about one stroke.
+  static constexpr std::uint64_t kUpdatesBeforeComparison = 100;
+  /// Compared samples before the error is judged (1 s of the 2 ms grid).
+  static constexpr std::uint64_t kSamplesBeforeVerdict = 500;
+
+  LiveModelMonitor(const IdentificationConfig& config, const HydraulicModel& model, LiveMonitorSettings settings);
+  /// Waits for a running ranking (its result is dropped).
+  ~LiveModelMonitor();
+
+  /// A new model (or new settings): the comparison, the window and the schedule start over, a running
+  /// ranking is dropped when it ends. The topic delay estimate is kept: it is the topics', not the model's.
+  void restart(const IdentificationConfig& config, const HydraulicModel& model);
+  /// The stamps jumped (a bag restarted): the free run starts again at the measured pressure.
+  void resync();
+
+  /// One grid sample with the identifier's state after it: the free-run step, the phase, the errors.
+  /// Starts a ranking when one is due and none runs; returns a ranking that finished since the last call.
+  std::optional<LiveRanking> addSample(const GridSample& g, const HydraulicIdentifier& identifier);
+
+  // ---- the comparison ----
+  const GridSample& lastSample() const { return last_; }
+  double modelledPressure() const { return modelled_pressure_; }  ///< [Pa], NaN while the model cannot run
+  StrokePhase phase() const { return phase_; }
+  double simulationErrorRms() const;                      ///< [Pa], over about one press cycle
+  double phaseErrorRms(StrokePhase phase) const;          ///< [Pa], same weighting, per phase
+  std::uint64_t comparedSamples() const { return compared_; }
+  std::uint64_t identifierUpdates() const { return updates_; }
+  bool estimatorStarted() const { return updates_ >= kUpdatesBeforeComparison; }
+  /// Why the last grid sample could not be compared with the model, in words; "" when it could.
+  const char* comparisonBlocker() const { return blocker_; }
+
+  // ---- the ranking window ----
+  const std::deque<GridSample>& window() const { return window_; }
+  const std::optional<EffectRankingResult>& ranking() const { return ranking_; }
+  double lastRankingSeconds() const { return last_ranking_seconds_; }  ///< NaN before the first
+  bool rankingRunning() const { return job_.valid(); }
+
+  // ---- the topics' clock offsets, estimated once on the first window with strokes ----
+  const std::optional<TopicDelayEstimate>& topicDelayEstimate() const { return delay_estimate_; }
+  /// Offsets worth correcting, once: the owner applies them and rebuilds the pipeline.
+  std::optional<std::array<double, kInputStreamCount>> takeDelayCorrection();
+
+ private:
+  struct Job {
+    LiveRanking ranking;
+    int generation = 0;
+  };
+  void startRanking();
+  std::optional<LiveRanking> collectRanking();
+
+  IdentificationConfig config_;
+  LiveMonitorSettings settings_;
+  std::unique_ptr<FreeRunPressure> free_run_;
+  StrokePhaseClassifier classifier_;
+
+  GridSample last_;
+  double modelled_pressure_ = 0.0;
+  StrokePhase phase_ = StrokePhase::kRest;
+  double square_error_ = 0.0;  // exponentially weighted over ~one cycle of free-run samples
+  std::array<double, kStrokePhaseCount> phase_square_error_{};
+  std::uint64_t compared_ = 0;
+  std::uint64_t updates_ = 0;
+  const char* blocker_ = "";
+
+  std::deque<GridSample> window_;
+  double last_ranking_time_ = -1e18;
+  std::optional<EffectRankingResult> ranking_;
+  double last_ranking_seconds_;
+  std::future<Job> job_;
+  int generation_ = 0;
+
+  std::optional<TopicDelayEstimate> delay_estimate_;
+  bool delays_pending_ = false;
+};
+
+}  // namespace die_cushion_ident
