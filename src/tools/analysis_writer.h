@@ -1,5 +1,7 @@
 #pragma once
 
+#include <future>
+#include <memory>
 #include <string>
 
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
@@ -18,9 +20,27 @@ struct AnalysisInput {
 
 /// Writes DIR/summary.yaml (interface contract), DIR/analysis.bag (the online estimates, the model
 /// comparison at 100 Hz and the valve's frequency response, on the input's time stamps) and CSV files.
-/// Throws std::runtime_error when a file cannot be written.
-void writeAnalysis(const std::string& directory, const AnalysisInput& input,
-                   const IdentificationConfig& config, const OfflineResult& result,
-                   const std::vector<GridSample>& grid);
+///
+/// In two steps, because writing an hour's estimates and comparison into the bag takes seconds: the
+/// constructor starts writing them (and their CSVs) on their own threads as soon as OfflineAnalysis::identify()
+/// has made them final, so that it runs while OfflineAnalysis::explain() ranks the effects; finish() waits for
+/// them and writes the rest. Throws std::runtime_error when a file cannot be written.
+class AnalysisWriter {
+ public:
+  /// Removes a previous run's outputs from `directory` (which must exist) and starts writing. The result's
+  /// estimates, strokes, model and assessment and the grid must not change until finish().
+  AnalysisWriter(const std::string& directory, const IdentificationConfig& config, const OfflineResult& result,
+                 const std::vector<GridSample>& grid);
+  /// Waits for a running write (its error, if any, is lost: the program is failing already).
+  ~AnalysisWriter();
+  /// Waits for the long series, then writes the valve's results, summary.yaml and the small CSVs.
+  void finish(const AnalysisInput& input, const OfflineResult& result);
+
+ private:
+  std::string directory_;
+  IdentificationConfig config_;
+  std::unique_ptr<class AnalysisBag> bag_;
+  std::future<void> bag_series_, comparison_csv_, estimates_csv_;
+};
 
 }  // namespace die_cushion_ident

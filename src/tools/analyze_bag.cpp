@@ -328,12 +328,22 @@ int run(int argc, char** argv) {
   }
 
   analysis->proposeAlways(options.propose);
-  OfflineResult result = analysis->finish([&](const std::string& step) {
+  const auto tell = [&](const std::string& step) {
     char elapsed[32];
     std::snprintf(elapsed, sizeof(elapsed), "%.1f s: ",
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
     log(elapsed + step);
-  });
+  };
+  OfflineResult result = analysis->identify(tell);
+  // The estimates and the model comparison are final: written out while the effects are ranked.
+  if (!makeDirectory(options.out)) fail(4, "cannot create output directory '" + options.out + "'");
+  std::unique_ptr<AnalysisWriter> writer;
+  try {
+    writer = std::make_unique<AnalysisWriter>(options.out, config, result, analysis->grid());
+  } catch (const std::exception& e) {
+    fail(4, std::string("cannot write the results: ") + e.what());
+  }
+  analysis->explain(&result, tell);
   result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
   if (delays) {
     result.delay_estimate = delays;
@@ -356,9 +366,9 @@ int run(int argc, char** argv) {
                                 delays->message + "): the stamps are used as recorded");
     }
   }
-  if (!makeDirectory(options.out)) fail(4, "cannot create output directory '" + options.out + "'");
+  tell("writing the results");
   try {
-    writeAnalysis(options.out, input, config, result, analysis->grid());
+    writer->finish(input, result);
   } catch (const std::exception& e) {
     fail(4, std::string("cannot write the results: ") + e.what());
   }

@@ -149,6 +149,12 @@ TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
 }
 
 OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string&)>& progress) {
+  OfflineResult r = identify(progress);
+  explain(&r, progress);
+  return r;
+}
+
+OfflineResult OfflineAnalysis::identify(const std::function<void(const std::string&)>& progress) {
   const auto tell = [&](const std::string& what) {
     if (progress) progress(what);
   };
@@ -259,6 +265,20 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
       cannot("the identified model could not be run against the measurement (no sample with pressure, "
              "position, velocity and spool all known above min_pressure): no simulation error");
     }
+  }
+  return r;
+}
+
+void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(const std::string&)>& progress) {
+  const auto tell = [&](const std::string& what) {
+    if (progress) progress(what);
+  };
+  OfflineResult& r = *result;
+  const auto cannot = [&r](const std::string& why) {
+    r.warnings.push_back(why);
+    r.partial = true;
+  };
+  if (r.hydraulics && r.model.updates > 0) {
     tell("trying the library's other effects on held-out cycles");
     EffectRankingOptions ranking_options;
     ranking_options.jobs = jobs_;
@@ -300,7 +320,6 @@ OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string
     RecordedSweep sweep = analyzeRecordedSweep(valve_, options);
     if (!sweep.segments.empty()) r.valve = std::move(sweep);
   }
-  return r;
 }
 
 }  // namespace die_cushion_ident

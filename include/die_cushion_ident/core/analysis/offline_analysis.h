@@ -108,8 +108,15 @@ class OfflineAnalysis {
   /// Searches formulas for the error the library leaves even when it is not structured (analyze_bag
   /// --propose); by default the search runs only when it is.
   void proposeAlways(bool always) { always_propose_ = always; }
-  /// Runs the analyses; `progress` (may be empty) is told what runs.
+  /// Runs the analyses; `progress` (may be empty) is told what runs. The same as identify() then explain().
   OfflineResult finish(const std::function<void(const std::string&)>& progress = {});
+  /// The first half of finish(): input health, strokes, the model fitted to the whole recording, its
+  /// variation over the recording and the free run against the measurement. The result's estimates,
+  /// strokes, model and assessment are final after it: a caller may write them out while explain() runs.
+  OfflineResult identify(const std::function<void(const std::string&)>& progress = {});
+  /// The second half: the effect ranking and formula search, step responses and valve sweeps. Changes only
+  /// the result's ranking, step_responses, valve, warnings and partial.
+  void explain(OfflineResult* result, const std::function<void(const std::string&)>& progress = {});
 
   const std::vector<GridSample>& grid() const { return grid_; }
   const IdentificationConfig& config() const { return config_; }
