@@ -61,6 +61,40 @@ ValveModel toValveModelMsg(const ServoValveFit& fit, const ros::Time& stamp) {
   return msg;
 }
 
+sensor_msgs::FluidPressure toFluidPressureMsg(const StreamSample& sample, const ros::Time& stamp) {
+  sensor_msgs::FluidPressure msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = kCushionFrame;
+  msg.fluid_pressure = sample.first;
+  return msg;
+}
+
+sensor_msgs::JointState toJointStateMsg(const StreamSample& sample, const ros::Time& stamp,
+                                        const SimulatedJoints& joints) {
+  sensor_msgs::JointState msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = kCushionFrame;
+  msg.name = joints.names;
+  const bool velocity = std::isfinite(sample.second);
+  for (const auto& joint : joints.names) {
+    const bool cushion = joint == joints.cushion, ram = joint == "ram";
+    const double scale = cushion || ram ? 1.0 : 0.1;
+    const double shift = ram && !cushion ? -0.3 : 0.0;
+    msg.position.push_back(scale * sample.first + shift);
+    if (velocity) msg.velocity.push_back(scale * sample.second);
+  }
+  return msg;
+}
+
+ValveSignal toValveSignalMsg(const StreamSample& sample, const ros::Time& stamp) {
+  ValveSignal msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = kCushionFrame;
+  msg.voltage = sample.first;
+  msg.spool_position = sample.second;
+  return msg;
+}
+
 ParameterEstimate toParameterEstimateMsg(const HydraulicModel& model, const std::vector<double>& values,
                                          const std::vector<double>& stds, const ros::Time& stamp) {
   ParameterEstimate msg;

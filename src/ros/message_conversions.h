@@ -9,6 +9,8 @@
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
+#include "die_cushion_ident/ValveSignal.h"
+#include "sensor_msgs/FluidPressure.h"
 #include "sensor_msgs/JointState.h"
 #include "die_cushion_ident/core/model/hydraulic_model.h"
 #include "die_cushion_ident/core/simulation/press_cycle.h"
@@ -39,6 +41,25 @@ ModelComparison toModelComparisonMsg(const GridSample& sample, double modelled_p
 /// Every figure of the comparison was computed (the model runs, the signals are there): only such messages
 /// are published or recorded.
 bool isComputed(const ModelComparison& msg);
+
+/// The frame of the cushion's sensor messages and markers.
+constexpr const char* kCushionFrame = "die_cushion";
+
+/// Where the simulated press's position topic puts its joints: the cushion's own, and others a cell's
+/// joint_states would carry next to it (shared/CONTRACT.md).
+struct SimulatedJoints {
+  std::vector<std::string> names = {"cushion"};
+  std::string cushion = "cushion";
+};
+
+// A simulated measurement as a press publishes it, shared by the simulator node and simulate_bag so that a
+// recorded bag and the live topics are the same messages.
+sensor_msgs::FluidPressure toFluidPressureMsg(const StreamSample& sample, const ros::Time& stamp);
+/// Positions (and velocities where the sample has one) of every joint: the cushion's is the sample's; the
+/// ram rides 0.3 m above it and any other joint follows at a tenth of its stroke.
+sensor_msgs::JointState toJointStateMsg(const StreamSample& sample, const ros::Time& stamp,
+                                        const SimulatedJoints& joints = SimulatedJoints());
+ValveSignal toValveSignalMsg(const StreamSample& sample, const ros::Time& stamp);
 
 /// Picks the cushion's joint out of a JointState (shared/CONTRACT.md): the joint named `joint_name`, or,
 /// with no name configured, the message's only joint, else position[0] (ambiguous: say so once). Its

@@ -149,31 +149,15 @@ class SimulatorNode {
     const ros::Time stamp(epoch + m.sample.stamp);
     switch (m.stream) {
       // Shared pointers: inside a nodelet manager the messages reach the identification without copies.
-      case InputStream::kPressure: {
-        auto msg = boost::make_shared<sensor_msgs::FluidPressure>();
-        msg->header.stamp = stamp;
-        msg->header.frame_id = "die_cushion";
-        msg->fluid_pressure = m.sample.first;
-        pressure_pub_.publish(msg);
+      case InputStream::kPressure:
+        pressure_pub_.publish(boost::make_shared<sensor_msgs::FluidPressure>(toFluidPressureMsg(m.sample, stamp)));
         break;
-      }
-      case InputStream::kPosition: {
-        auto msg = boost::make_shared<sensor_msgs::JointState>();
-        msg->header.stamp = stamp;
-        msg->name = {"cushion"};
-        msg->position = {m.sample.first};
-        if (std::isfinite(m.sample.second)) msg->velocity = {m.sample.second};
-        position_pub_.publish(msg);
+      case InputStream::kPosition:
+        position_pub_.publish(boost::make_shared<sensor_msgs::JointState>(toJointStateMsg(m.sample, stamp)));
         break;
-      }
-      case InputStream::kValve: {
-        auto msg = boost::make_shared<ValveSignal>();
-        msg->header.stamp = stamp;
-        msg->voltage = m.sample.first;
-        msg->spool_position = m.sample.second;
-        valve_pub_.publish(msg);
+      case InputStream::kValve:
+        valve_pub_.publish(boost::make_shared<ValveSignal>(toValveSignalMsg(m.sample, stamp)));
         break;
-      }
     }
   }
 
