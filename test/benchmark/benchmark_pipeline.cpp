@@ -66,6 +66,33 @@ static void BM_RlsUpdate(benchmark::State& state) {
 }
 BENCHMARK(BM_RlsUpdate)->Arg(3)->Arg(4)->Arg(8);
 
+// The floor RecursiveLeastSquares::update is measured against: a bare rank-one update of the same types,
+// without the Joseph form, the checks, the symmetrisation and the covariance bound.
+static void BM_PlainRankOneUpdate(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  ParameterVector theta = ParameterVector::Ones(n);
+  CovarianceMatrix P = CovarianceMatrix::Identity(n, n) * 100;
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> normal;
+  std::vector<ParameterVector> rows(1024, ParameterVector(n));
+  for (auto& r : rows) {
+    for (int i = 0; i < n; ++i) r(i) = normal(rng);
+  }
+  const double lambda = 0.998;
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const auto& phi = rows[k++ & 1023];
+    const ParameterVector u = P * phi;
+    const double s = lambda + phi.dot(u);
+    theta.noalias() += u * ((phi.sum() - phi.dot(theta)) / s);
+    P.noalias() -= u * u.transpose() / s;
+    P /= lambda;
+    benchmark::DoNotOptimize(theta.data());
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_PlainRankOneUpdate)->Arg(3)->Arg(4)->Arg(8);
+
 static void BM_MovingAverageAndDerivative(benchmark::State& state) {
   MovingAverageFilter average(31, 1);
   SymmetricDerivative derivative(25, 1, 0.002);

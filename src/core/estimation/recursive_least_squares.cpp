@@ -61,10 +61,12 @@ RecursiveLeastSquares::UpdateStatus RecursiveLeastSquares::update(const Paramete
   // Joseph form, P = [(I - k phi^T) P (I - k phi^T)^T + lambda k k^T] / lambda: algebraically the same as
   // (P - u u^T / s) / lambda, but a sum of positive semi-definite terms, so it stays positive definite when
   // the parameters' scales differ by orders of magnitude (the rank-one form lost it 87 times in 1e6 steps).
-  const int n = size();
-  CovarianceMatrix I_minus_k_phi = CovarianceMatrix::Identity(n, n);
-  I_minus_k_phi.noalias() -= gain * regressor.transpose();
-  CovarianceMatrix next = I_minus_k_phi * P_ * I_minus_k_phi.transpose();
+  // The products are taken in O(n^2) by their rank-one structure, with P = P^T:
+  //   B = (I - k phi^T) P = P - k u^T,   B (I - k phi^T)^T = B - (B phi) k^T.
+  CovarianceMatrix next = P_;
+  next.noalias() -= gain * u.transpose();
+  const ParameterVector b_phi = next * regressor;
+  next.noalias() -= b_phi * gain.transpose();
   next.noalias() += lambda * gain * gain.transpose();
   P_ = 0.5 * (next + next.transpose()) / lambda;
   if (options_.bound_covariance) boundCovariance();
