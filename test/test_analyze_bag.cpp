@@ -322,6 +322,31 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
   }
   expectFinite(kWork + "/absurd");
 
+  // Position messages without a position are rejected and counted like the node counts them, and said.
+  {
+    rosbag::Bag source(kWork + "/leak.bag", rosbag::bagmode::Read);
+    rosbag::Bag target(kWork + "/no_position.bag", rosbag::bagmode::Write);
+    int index = 0;
+    for (const rosbag::MessageInstance& m : rosbag::View(source)) {
+      if (m.getTopic() == "/die_cushion/position") {
+        auto msg = m.instantiate<sensor_msgs::JointState>();
+        if (index++ % 100 == 7) msg->position.clear();
+        target.write(m.getTopic(), m.getTime(), *msg);
+      } else {
+        target.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
+      }
+    }
+  }
+  r = run(tool + kWork + "/no_position.bag --out " + kWork + "/no_position" + config("geometry.yaml", geometry));
+  EXPECT_EQ(r.status, 0) << r.output;
+  {
+    const YAML::Node s = YAML::LoadFile(kWork + "/no_position/summary.yaml");
+    const int messages = s["input"]["topics"]["position"]["messages"].as<int>();
+    EXPECT_EQ(s["input"]["topics"]["position"]["rejected"].as<int>(), (messages + 92) / 100);
+    EXPECT_TRUE(anyWarningSays(s, "without a position")) << fileText(kWork + "/no_position/summary.yaml");
+    EXPECT_EQ(s["candidates"][0]["effect"].as<std::string>(), "leakage");
+  }
+
   // Pressure recorded in bar: nothing can be identified, and the summary says why instead of showing the
   // initial values with std 0 and "within the noise".
   rewritePressure(kWork + "/leak.bag", kWork + "/bar.bag",
@@ -346,7 +371,11 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
   // Corrupted bytes in the middle: partial, with the share that was read.
   {
     std::string bytes = fileText(kWork + "/leak.bag");
-    for (std::size_t i = 0; i < 200; ++i) bytes[bytes.size() / 3 + i] = static_cast<char>(0xA5);
+    // Over the header of a message record a third into the file (not an index record, whose damage the
+    // stream reader does not need to notice): "op=" 0x02 marks message data.
+    const std::size_t record = bytes.find(std::string("op=\x02", 4), bytes.size() / 3);
+    ASSERT_NE(record, std::string::npos);
+    for (std::size_t i = 0; i < 200; ++i) bytes[record - 20 + i] = static_cast<char>(0xA5);
     std::ofstream(kWork + "/corrupt.bag", std::ios::binary) << bytes;
   }
   r = run(tool + kWork + "/corrupt.bag --out " + kWork + "/corrupt" + config("geometry.yaml", geometry));

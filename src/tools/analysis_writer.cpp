@@ -107,7 +107,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::Key << "messages" << YAML::Value << input.messages[s];
     out << YAML::Key << "rate" << YAML::Value << h.rate();
     out << YAML::Key << "rejected" << YAML::Value
-        << (h.non_finite + h.duplicates + h.out_of_order + h.implausible + h.wild_stamps);
+        << (input.unusable[s] + h.non_finite + h.duplicates + h.out_of_order + h.implausible + h.wild_stamps);
     out << YAML::Key << "implausible" << YAML::Value << h.implausible;
     out << YAML::Key << "wild_stamps" << YAML::Value << h.wild_stamps;
     out << YAML::Key << "gaps" << YAML::Value << h.gaps;

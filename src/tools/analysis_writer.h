@@ -13,6 +13,9 @@ struct AnalysisInput {
   std::string bag;
   std::string topics[kInputStreamCount];
   std::uint64_t messages[kInputStreamCount] = {0, 0, 0};
+  /// Messages that gave no sample (damaged, or a JointState without the cushion's joint or its position):
+  /// counted with the resampler's rejections, as the node counts them.
+  std::uint64_t unusable[kInputStreamCount] = {0, 0, 0};
   double duration = 0.0;  ///< [s] of the bag
   double start = 0.0;     ///< [s] record time of its first message (seconds since the epoch)
   std::string joint_name;  ///< configured cushion joint ("" = the only one / position[0])

@@ -22,6 +22,7 @@
 
 #include "analysis_config.h"
 #include "analysis_writer.h"
+#include "argument_parser.h"
 #include "bag_stream_reader.h"
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
@@ -60,41 +61,25 @@ struct Options {
 
 Options parseArguments(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) fail(2, a + " needs a value\n" + kUsage);
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (a == "--out") {
-      o.out = value();
-    } else if (a == "--config") {
-      o.config = value();
-    } else if (a == "--effects") {
-      o.effects_given = true;
-      o.effects = splitList(value());
-    } else if (a == "--custom-effect") {
-      o.custom_effects.push_back(value());
-    } else if (a == "--quiet") {
-      o.quiet = true;
-    } else if (a == "--propose") {
-      o.propose = true;
-    } else if (a == "--jobs") {
-      const std::string text = value();
-      const auto jobs = wholeNumberIn(text, 1, 256);
-      if (!jobs) fail(2, "--jobs needs a whole number of threads in [1, 256], got '" + text + "'\n" + kUsage);
-      o.jobs = static_cast<int>(*jobs);
-    } else if (!a.empty() && a[0] == '-') {
-      fail(2, "unknown option " + a + "\n" + kUsage);
-    } else if (o.bag.empty()) {
-      o.bag = a;
-    } else {
-      fail(2, "more than one bag given ('" + o.bag + "', '" + a + "')\n" + kUsage);
-    }
+  ArgumentParser arguments;
+  arguments.option("--out", [&](const std::string& v) { o.out = v; })
+      .option("--config", [&](const std::string& v) { o.config = v; })
+      .option("--effects",
+              [&](const std::string& v) {
+                o.effects_given = true;
+                o.effects = splitList(v);
+              })
+      .option("--custom-effect", [&](const std::string& v) { o.custom_effects.push_back(v); })
+      .flag("--quiet", [&] { o.quiet = true; })
+      .flag("--propose", [&] { o.propose = true; })
+      .wholeNumber("--jobs", 1, 256, &o.jobs)
+      .positional("bag", 1, [&](const std::string& v) { o.bag = v; });
+  const std::string problem = arguments.parse(argc, argv);
+  if (arguments.helpRequested()) {
+    std::cout << kUsage;
+    std::exit(0);
   }
+  if (!problem.empty()) fail(2, problem + "\n" + kUsage);
   if (o.bag.empty()) fail(2, std::string("no bag given\n") + kUsage);
   if (o.out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
   return o;
@@ -137,7 +122,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   // A hint from the index, bounded by what the file can hold (a message is at least ~40 bytes on disk).
   analysis.reserve(reader->indexedSpan(), 48 * 3600.0);
   log("reading " + std::to_string(pass.file_size >> 20) + " MB from " + input.bag);
-  for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = 0;
+  for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = input.unusable[s] = 0;
   auto last_report = std::chrono::steady_clock::now();
   std::uint64_t done = 0;
   sensor_msgs::JointState joint_state;
@@ -184,16 +169,19 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
             sample.stamp = stamp;
             break;
           case JointSelector::Result::kJointMissing:
+            ++input.unusable[s];
             ++pass.joint_missing;
             pass.joint_problem = joints.problem();
             return;
           case JointSelector::Result::kNoPosition:
+            ++input.unusable[s];
             ++pass.without_position;
             return;
         }
       }
     }
     if (!decoded) {
+      ++input.unusable[s];
       ++pass.damaged;
       return;
     }

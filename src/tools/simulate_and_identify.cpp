@@ -3,12 +3,15 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
+#include <stdexcept>
 #include <iostream>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "argument_parser.h"
 #include "command_line.h"
 #include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
@@ -43,65 +46,54 @@ void printTable(const DieCushionSimulator& plant, const HydraulicEstimate& e) {
 }
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   int cycles = 5;
   int step_cycle = -1;
   double step_factor = 1.0;
   bool feed_forward = false;
   SimulatorConfig plant_config;
   IdentificationConfig config;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        usage();
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (arg == "--help" || arg == "-h") {
-      usage();
-      return 0;
-    } else if (arg == "--cycles") {
-      cycles = std::atoi(next().c_str());
-    } else if (arg == "--plant-effects") {
-      plant_config.effects = splitList(next());
-    } else if (arg == "--effects") {
-      config.effects = splitList(next());
-    } else if (arg == "--form") {
-      if (!parseRegressionForm(next(), &config.regression_form)) {
-        std::cerr << "--form must be integral or derivative\n";
-        return 2;
-      }
-    } else if (arg == "--forgetting") {
-      config.forgetting_factor = std::atof(next().c_str());
-    } else if (arg == "--noise-free") {
-      plant_config.sensors.pressure_noise = plant_config.sensors.position_noise = 0.0;
-      plant_config.sensors.velocity_noise = plant_config.sensors.spool_noise = plant_config.sensors.jitter =
-          0.0;
-    } else if (arg == "--set") {
-      const std::string kv = next();
-      const auto eq = kv.find('=');
-      if (eq == std::string::npos ||
-          !setNumericConfigValue(config, kv.substr(0, eq), std::atof(kv.c_str() + eq + 1))) {
-        std::cerr << "--set takes KEY=VALUE with a numeric configuration key\n";
-        return 2;
-      }
-    } else if (arg == "--feed-forward") {
-      feed_forward = true;
-    } else if (arg == "--seed") {
-      plant_config.seed = std::strtoull(next().c_str(), nullptr, 10);
-    } else if (arg == "--bulk-modulus-step") {
-      step_factor = std::atof(next().c_str());
-    } else if (arg == "--step-cycle") {
-      step_cycle = std::atoi(next().c_str());
-    } else {
-      usage();
-      return 2;
-    }
+  ArgumentParser arguments;
+  arguments.wholeNumber("--cycles", 1, 100000, &cycles)
+      .option("--plant-effects", [&](const std::string& v) { plant_config.effects = splitList(v); })
+      .option("--effects", [&](const std::string& v) { config.effects = splitList(v); })
+      .option("--form",
+              [&](const std::string& v) {
+                if (!parseRegressionForm(v, &config.regression_form)) {
+                  throw std::invalid_argument("--form must be integral or derivative, got '" + v + "'");
+                }
+              })
+      .number("--forgetting", 0.0, 1.0, &config.forgetting_factor)
+      .flag("--noise-free",
+            [&] {
+              SensorConfig& s = plant_config.sensors;
+              s.pressure_noise = s.position_noise = s.velocity_noise = s.spool_noise = s.jitter = 0.0;
+            })
+      .option("--set",
+              [&](const std::string& kv) {
+                const auto eq = kv.find('=');
+                const auto value = eq == std::string::npos ? std::nullopt : numberIn(kv.substr(eq + 1), -1e300, 1e300);
+                if (!value || !setNumericConfigValue(config, kv.substr(0, eq), *value)) {
+                  throw std::invalid_argument("--set takes KEY=VALUE with a numeric configuration key, got '" + kv + "'");
+                }
+              })
+      .flag("--feed-forward", [&] { feed_forward = true; })
+      .option("--seed",
+              [&](const std::string& v) {
+                const auto seed = wholeNumberIn(v, 0, std::numeric_limits<long>::max());
+                if (!seed) throw std::invalid_argument("--seed needs a whole number >= 0, got '" + v + "'");
+                plant_config.seed = static_cast<std::uint64_t>(*seed);
+              })
+      .number("--bulk-modulus-step", 1e-3, 1e3, &step_factor)
+      .wholeNumber("--step-cycle", 0, 100000, &step_cycle);
+  const std::string problem = arguments.parse(argc, argv);
+  if (arguments.helpRequested()) {
+    usage();
+    return 0;
   }
-  if (cycles < 1) {
-    std::cerr << "--cycles must be at least 1\n";
+  if (!problem.empty()) {
+    std::cerr << "simulate_and_identify: " << problem << "\n";
+    usage();
     return 2;
   }
   try {
@@ -161,3 +153,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+int main(int argc, char** argv) { return run(argc, argv); }

@@ -2,16 +2,15 @@
 // record it (press cycles, then optionally a valve sine sweep with the cushion at rest). For trying
 // analyze_bag, for its tests and for the throughput benchmark; no roscore needed.
 #include <rosbag/bag.h>
-#include <sensor_msgs/FluidPressure.h>
-#include <sensor_msgs/JointState.h>
 
 #include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <sstream>
 
+#include "argument_parser.h"
 #include "command_line.h"
-#include "die_cushion_ident/ValveSignal.h"
+#include "message_conversions.h"
 #include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 #include "die_cushion_ident/core/signal/velocity_from_position.h"
@@ -56,6 +55,8 @@ class BagRecorder {
  public:
   BagRecorder(const std::string& path, double epoch, const Recording& recording)
       : epoch_(epoch), recording_(recording) {
+    joints_.names = recording.joints;
+    joints_.cushion = recording.cushion_joint;
     bag_.open(path, rosbag::bagmode::Write);
   }
   ~BagRecorder() { bag_.close(); }
@@ -64,36 +65,15 @@ class BagRecorder {
     const int s = static_cast<int>(m.stream);
     const ros::Time stamp(epoch_ + offset + m.sample.stamp + recording_.stamp_offsets[s]);
     switch (m.stream) {
-      case InputStream::kPressure: {
-        sensor_msgs::FluidPressure msg;
-        msg.header.stamp = stamp;
-        msg.fluid_pressure = m.sample.first;
-        bag_.write(kTopics[s], stamp, msg);
+      case InputStream::kPressure:
+        bag_.write(kTopics[s], stamp, toFluidPressureMsg(m.sample, stamp));
         break;
-      }
-      case InputStream::kPosition: {
-        sensor_msgs::JointState msg;
-        msg.header.stamp = stamp;
-        msg.name = recording_.joints;
-        const bool velocity = std::isfinite(m.sample.second);
-        for (const auto& joint : recording_.joints) {
-          // The ram rides 0.3 m above the cushion; the blank holder follows at a tenth of its stroke.
-          const double scale = joint == recording_.cushion_joint ? 1.0 : joint == "ram" ? 1.0 : 0.1;
-          const double shift = joint == recording_.cushion_joint ? 0.0 : joint == "ram" ? -0.3 : 0.0;
-          msg.position.push_back(scale * m.sample.first + shift);
-          if (velocity) msg.velocity.push_back(scale * m.sample.second);
-        }
-        bag_.write(kTopics[s], stamp, msg);
+      case InputStream::kPosition:
+        bag_.write(kTopics[s], stamp, toJointStateMsg(m.sample, stamp, joints_));
         break;
-      }
-      case InputStream::kValve: {
-        ValveSignal msg;
-        msg.header.stamp = stamp;
-        msg.voltage = m.sample.first;
-        msg.spool_position = m.sample.second;
-        bag_.write(kTopics[s], stamp, msg);
+      case InputStream::kValve:
+        bag_.write(kTopics[s], stamp, toValveSignalMsg(m.sample, stamp));
         break;
-      }
     }
   }
 
@@ -101,6 +81,7 @@ class BagRecorder {
   rosbag::Bag bag_;
   double epoch_;
   Recording recording_;
+  SimulatedJoints joints_;
 };
 
 // "a,b,c" -> three numbers.
@@ -116,79 +97,68 @@ void threeNumbers(const std::string& text, double out[kInputStreamCount]) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   std::string out;
   double cycles = 6, hours = 0.0, epoch = 1.7e9, start_offset = 0.0;
   bool sweep = false, continuous_command = false;
   double step_test = 0.0;
   SimulatorConfig plant;
   Recording recording;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::cerr << "simulate_bag: " << a << " needs a value\n" << kUsage;
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    try {
-      if (a == "--help" || a == "-h") {
-        std::cout << kUsage;
-        return 0;
-      } else if (a == "--cycles") {
-        cycles = std::stod(value());
-      } else if (a == "--hours") {
-        hours = std::stod(value());
-      } else if (a == "--plant-effects") {
-        plant.effects = splitList(value());
-      } else if (a == "--custom-effect") {
-        plant.custom_effects.push_back(value());
-      } else if (a == "--set") {
-        const std::string kv = value();
-        const auto eq = kv.find('=');
-        if (eq == std::string::npos) throw std::invalid_argument("--set needs NAME=VALUE");
-        plant.parameters[kv.substr(0, eq)] = std::stod(kv.substr(eq + 1));
-      } else if (a == "--seed") {
-        plant.seed = std::stoull(value());
-      } else if (a == "--sweep") {
-        sweep = true;
-      } else if (a == "--step-test") {
-        step_test = std::stod(value());
-        if (!std::isfinite(step_test) || step_test == 0.0 || std::abs(step_test) > 10.0) {
-          throw std::invalid_argument("--step-test needs a voltage step in [-10, 10] V, not 0");
-        }
-      } else if (a == "--no-spool") {
-        plant.sensors.measure_spool = false;
-      } else if (a == "--no-velocity") {
-        plant.sensors.publish_velocity = false;
-      } else if (a == "--joints") {
-        recording.joints = splitList(value());
-      } else if (a == "--joint-name") {
-        recording.cushion_joint = value();
-      } else if (a == "--rates") {
-        double rates[kInputStreamCount];
-        threeNumbers(value(), rates);
-        plant.sensors.pressure_rate = rates[0];
-        plant.sensors.position_rate = rates[1];
-        plant.sensors.valve_rate = rates[2];
-      } else if (a == "--stamp-offsets") {
-        threeNumbers(value(), recording.stamp_offsets);
-      } else if (a == "--continuous-command") {
-        continuous_command = true;
-      } else if (a == "--start-offset") {
-        start_offset = std::stod(value());
-      } else if (a == "--epoch") {
-        epoch = std::stod(value());
-      } else if (!a.empty() && a[0] != '-' && out.empty()) {
-        out = a;
-      } else {
-        throw std::invalid_argument("unexpected argument " + a);
-      }
-    } catch (const std::exception& e) {
-      std::cerr << "simulate_bag: " << e.what() << "\n" << kUsage;
-      return 2;
-    }
+  ArgumentParser arguments;
+  arguments.number("--cycles", 0.0, 1e6, &cycles)
+      .number("--hours", 0.0, 1e4, &hours)
+      .option("--plant-effects", [&](const std::string& v) { plant.effects = splitList(v); })
+      .option("--custom-effect", [&](const std::string& v) { plant.custom_effects.push_back(v); })
+      .option("--set",
+              [&](const std::string& kv) {
+                const auto eq = kv.find('=');
+                const auto value = eq == std::string::npos ? std::nullopt : numberIn(kv.substr(eq + 1), -1e300, 1e300);
+                if (!value) throw std::invalid_argument("--set needs NAME=VALUE with a finite number, got '" + kv + "'");
+                plant.parameters[kv.substr(0, eq)] = *value;
+              })
+      .option("--seed",
+              [&](const std::string& v) {
+                const auto seed = wholeNumberIn(v, 0, std::numeric_limits<long>::max());
+                if (!seed) throw std::invalid_argument("--seed needs a whole number >= 0, got '" + v + "'");
+                plant.seed = static_cast<std::uint64_t>(*seed);
+              })
+      .flag("--sweep", [&] { sweep = true; })
+      .option("--step-test",
+              [&](const std::string& v) {
+                const auto step = numberIn(v, -10.0, 10.0);
+                if (!step || *step == 0.0) {
+                  throw std::invalid_argument("--step-test needs a voltage step in [-10, 10] V, not 0, got '" + v + "'");
+                }
+                step_test = *step;
+              })
+      .flag("--no-spool", [&] { plant.sensors.measure_spool = false; })
+      .flag("--no-velocity", [&] { plant.sensors.publish_velocity = false; })
+      .option("--joints", [&](const std::string& v) { recording.joints = splitList(v); })
+      .option("--joint-name", [&](const std::string& v) { recording.cushion_joint = v; })
+      .option("--rates",
+              [&](const std::string& v) {
+                double rates[kInputStreamCount];
+                threeNumbers(v, rates);
+                for (double rate : rates) {
+                  if (!(rate > 0.0)) throw std::invalid_argument("--rates needs three rates above 0 Hz, got '" + v + "'");
+                }
+                plant.sensors.pressure_rate = rates[0];
+                plant.sensors.position_rate = rates[1];
+                plant.sensors.valve_rate = rates[2];
+              })
+      .option("--stamp-offsets", [&](const std::string& v) { threeNumbers(v, recording.stamp_offsets); })
+      .flag("--continuous-command", [&] { continuous_command = true; })
+      .number("--start-offset", 0.0, 1e6, &start_offset)
+      .number("--epoch", 0.0, 4e9, &epoch)
+      .positional("output bag", 1, [&](const std::string& v) { out = v; });
+  const std::string problem = arguments.parse(argc, argv);
+  if (arguments.helpRequested()) {
+    std::cout << kUsage;
+    return 0;
+  }
+  if (!problem.empty()) {
+    std::cerr << "simulate_bag: " << problem << "\n" << kUsage;
+    return 2;
   }
   if (out.empty()) {
     std::cerr << "simulate_bag: no output bag given\n" << kUsage;
@@ -302,3 +272,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+int main(int argc, char** argv) { return run(argc, argv); }
