@@ -7,6 +7,8 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/JointState.h>
+
+#include "die_cushion_ident/FrequencyResponse.h"
 #include <sensor_msgs/FluidPressure.h>
 #include <std_msgs/Float64.h>
 #include <sys/wait.h>
@@ -124,10 +126,25 @@ TEST_F(AnalyzeBag, AnalysisBagAndCsvAreTimeAlignedWithTheInput) {
   }
   EXPECT_GE(out_view.getBeginTime().toSec(), in_view.getBeginTime().toSec() - 1e-3);
   EXPECT_LE(out_view.getEndTime().toSec(), in_view.getEndTime().toSec() + 1e-3);
-  for (const char* csv : {"estimates.csv", "model_comparison.csv", "frequency_response.csv"}) {
+  for (const char* csv : {"estimates.csv", "model_comparison.csv", "frequency_response.csv", "valve_fit.csv"}) {
     std::ifstream file(kWork + "/outputs/" + csv);
     std::string header, first;
     EXPECT_TRUE(std::getline(file, header) && std::getline(file, first)) << csv;
+  }
+  // The fitted curve in valve_fit.csv is the bag's FrequencyResponse curve, row by row.
+  for (const rosbag::MessageInstance& m : rosbag::View(output, rosbag::TopicQuery("/die_cushion_ident/frequency_response"))) {
+    const auto response = m.instantiate<die_cushion_ident::FrequencyResponse>();
+    ASSERT_TRUE(response);
+    std::ifstream file(kWork + "/outputs/valve_fit.csv");
+    std::string line;
+    std::getline(file, line);
+    std::size_t rows = 0;
+    while (std::getline(file, line)) {
+      ASSERT_LT(rows, response->fit_frequency.size());
+      EXPECT_NEAR(std::stod(line.substr(line.find(',') + 1)), response->fit_magnitude[rows], 1e-9 * response->fit_magnitude[rows]);
+      ++rows;
+    }
+    EXPECT_EQ(rows, response->fit_frequency.size());
   }
 }
 
@@ -409,6 +426,7 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
   ASSERT_EQ(run(kTools + "/simulate_bag " + kWork + "/nosweep.bag --cycles 3 --seed 2").status, 0);
   ASSERT_EQ(run(tool + kWork + "/nosweep.bag --out " + kWork + "/reused" + config("geometry.yaml", geometry)).status, 0);
   EXPECT_FALSE(std::ifstream(kWork + "/reused/frequency_response.csv").good()) << "no stale valve results";
+  EXPECT_FALSE(std::ifstream(kWork + "/reused/valve_fit.csv").good()) << "no stale valve results";
 
   // A full disk (a file-size limit here): exit 4 with the reason, never an abort.
   r = run("bash -c 'trap \"\" XFSZ; ulimit -f 200; " + tool + kWork + "/leak.bag --out " + kWork + "/full" +

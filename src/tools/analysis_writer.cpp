@@ -372,6 +372,17 @@ void writeSmallCsvs(const std::string& directory, const OfflineResult& r) {
           << Field{p.harmonic_distortion} << "," << p.distorted << "\n";
     }
     closeChecked(csv, directory + "/frequency_response.csv");
+    // The fitted model's curve as the bag's FrequencyResponse message carries it, for the report's Bode plot.
+    const FrequencyResponse response = toFrequencyResponseMsg(r.valve->points, r.valve->fit, "finished", ros::Time());
+    if (!response.fit_frequency.empty()) {
+      CsvFile fit(directory + "/valve_fit.csv");
+      fit.text("frequency,magnitude,phase").endLine();
+      for (std::size_t k = 0; k < response.fit_frequency.size(); ++k) {
+        fit.field(response.fit_frequency[k]).comma().field(response.fit_magnitude[k]).comma();
+        fit.field(response.fit_phase[k]).endLine();
+      }
+      fit.close();
+    }
   }
   if (!r.ranking.proposals.empty()) {
     // For the report: each proposal's residual against its signal, with the fitted term drawn over it.
@@ -448,7 +459,7 @@ AnalysisWriter::AnalysisWriter(const std::string& directory, const Identificatio
   // A reused output folder must not keep a previous run's files (a stale frequency_response.csv would
   // describe another recording).
   for (const char* name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
-                           "frequency_response.csv", "proposals.csv"}) {
+                           "frequency_response.csv", "valve_fit.csv", "proposals.csv"}) {
     std::remove((directory + "/" + name).c_str());
   }
   bag_ = std::make_unique<AnalysisBag>(directory + "/analysis.bag");
