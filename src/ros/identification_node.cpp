@@ -222,12 +222,9 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
   const HydraulicEstimate e = identifier.estimate();
   const ros::Time stamp(std::max(e.t, 0.0));
   if (estimate) {
-    std::vector<double> values, stds;
-    for (const auto& p : e.parameters) {
-      values.push_back(p.value);
-      stds.push_back(p.std);
-    }
-    ParameterEstimate msg = toParameterEstimateMsg(identifier.model(), values, stds, stamp);
+    const ParameterVector values = e.values(), stds = e.standardDeviations();
+    ParameterEstimate msg = toParameterEstimateMsg(identifier.model(), {values.data(), values.data() + values.size()},
+                                                   {stds.data(), stds.data() + stds.size()}, stamp);
     msg.equation_error_rms = e.equation_error_rms;
     msg.updates = e.updates;
     msg.skipped_unexcited = e.skipped_unexcited;

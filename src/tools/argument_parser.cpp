@@ -1,21 +1,11 @@
 #include "argument_parser.h"
 
-#include <cstdio>
 #include <stdexcept>
 
 #include "command_line.h"
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
-
-namespace {
-
-std::string shortest(double value) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%g", value);
-  return text;
-}
-
-}  // namespace
 
 ArgumentParser& ArgumentParser::flag(const std::string& name, std::function<void()> on) {
   options_[name] = {false, [on](const std::string&) { on(); }};
@@ -31,7 +21,7 @@ ArgumentParser& ArgumentParser::number(const std::string& name, double low, doub
   return option(name, [=](const std::string& text) {
     const auto value = numberIn(text, low, high);
     if (!value) {
-      throw std::invalid_argument(name + " needs a number in [" + shortest(low) + ", " + shortest(high) +
+      throw std::invalid_argument(name + " needs a number in [" + formatted("%g", low) + ", " + formatted("%g", high) +
                                   "], got '" + text + "'");
     }
     *out = *value;

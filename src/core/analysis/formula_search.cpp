@@ -271,8 +271,7 @@ double freeRunRms(const std::vector<GridSample>& grid, const StrokeSegmentation&
                   const IdentificationConfig& config, int first, int last) {
   const HydraulicModel model = HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
   const HydraulicEstimate e = fitOnCycles(grid, strokes, config, first, last);
-  ParameterVector theta(model.parameterCount());
-  for (int i = 0; i < model.parameterCount(); ++i) theta(i) = e.parameters[i].value;
+  const ParameterVector theta = e.values();
   FreeRunPressure free_run(model, config.min_pressure);
   const auto [begin, end] = strokes.range(first, last);
   double sum = 0.0;
@@ -393,8 +392,7 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
                                            const EffectRankingOptions& ranking, const FormulaSearchOptions& options) {
   const HydraulicModel hydraulic = HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects);
   const HydraulicEstimate fitted = fitOnCycles(grid, strokes, model, INT_MIN, INT_MAX);
-  ParameterVector theta(hydraulic.parameterCount());
-  for (int i = 0; i < hydraulic.parameterCount(); ++i) theta(i) = fitted.parameters[i].value;
+  ParameterVector theta = fitted.values();
   if (!theta.allFinite()) theta = hydraulic.nominalParameters();
   const BalanceScreen screen(grid, strokes, model, hydraulic, theta, options);
   if (screen.windows() < 10 * hydraulic.parameterCount()) return {};

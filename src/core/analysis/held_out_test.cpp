@@ -25,8 +25,7 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
     const int fit_first = fold == 0 ? 0 : split, fit_last = fold == 0 ? split - 1 : strokes.cycles - 1;
     const int test_first = fold == 0 ? split : 0, test_last = fold == 0 ? strokes.cycles - 1 : split - 1;
     const HydraulicEstimate e = fitOnCycles(grid, strokes, config, fit_first, fit_last);
-    ParameterVector theta(model.parameterCount());
-    for (int i = 0; i < model.parameterCount(); ++i) theta(i) = e.parameters[i].value;
+    const ParameterVector theta = e.values();
     FreeRunPressure free_run(model, config.min_pressure);
     std::vector<double> sum(strokes.cycles, 0.0);
     std::vector<int> count(strokes.cycles, 0);

@@ -257,8 +257,7 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
     // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
   } else if (r.hydraulics) {
-    ParameterVector theta(model.parameterCount());
-    for (int i = 0; i < model.parameterCount(); ++i) theta(i) = r.model.parameters[i].value;
+    const ParameterVector theta = r.model.values();
     tell("running the model free against the measurement");
     r.assessment = assessModel(grid_, r.strokes, model, theta, config_.min_pressure);
     if (r.assessment.samples == 0) {

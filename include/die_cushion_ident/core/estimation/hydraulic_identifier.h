@@ -31,6 +31,19 @@ struct HydraulicEstimate {
   std::uint64_t skipped_invalid = 0;            ///< steps whose window held unusable samples
   std::uint64_t skipped_unexcited = 0;          ///< steps in the excitation dead zone
   double equation_error_rms = 0.0;              ///< recent a-priori error of dp/dt [Pa/s]
+
+  /// The estimated values in model order, as the model takes them.
+  ParameterVector values() const {
+    ParameterVector v(static_cast<Eigen::Index>(parameters.size()));
+    for (std::size_t i = 0; i < parameters.size(); ++i) v(static_cast<Eigen::Index>(i)) = parameters[i].value;
+    return v;
+  }
+  /// Their standard deviations, same order.
+  ParameterVector standardDeviations() const {
+    ParameterVector v(static_cast<Eigen::Index>(parameters.size()));
+    for (std::size_t i = 0; i < parameters.size(); ++i) v(static_cast<Eigen::Index>(i)) = parameters[i].std;
+    return v;
+  }
 };
 
 /// Online identification of the pressure build-up model (the paper's method, made unbiased):
