@@ -1,6 +1,7 @@
 #include "die_cushion_ident/core/analysis/effect_ranking.h"
 
 #include <algorithm>
+#include <future>
 #include <climits>
 #include <cmath>
 #include <cstdio>
@@ -75,8 +76,14 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
     physics += (physics.empty() ? "" : "; ") + effect->explanation();
     infos.push_back(effect->parameterFor(model.geometry));
   }
-  // The effects' parameters fitted on all the data, in physical units.
-  const HydraulicEstimate all = fitOnCycles(grid, strokes, extended, INT_MIN, INT_MAX);
+  // The effects' parameters fitted on all the data, in physical units; beside it (unless one job is asked
+  // for) the two held-out folds, so that a round of fewer candidates than cores still fills them.
+  const bool side_by_side = options.jobs != 1;
+  std::future<HydraulicEstimate> fitted_on_all =
+      std::async(side_by_side ? std::launch::async : std::launch::deferred,
+                 [&] { return fitOnCycles(grid, strokes, extended, INT_MIN, INT_MAX); });
+  if (enough) judged.held_out = heldOutErrors(grid, strokes, extended, options.split(strokes.cycles), side_by_side);
+  const HydraulicEstimate all = fitted_on_all.get();
   for (const ParameterInfo& info : infos) {
     for (const auto& p : all.parameters) {
       if (p.name != info.name) continue;
@@ -97,7 +104,6 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
     return judged;
   }
   judged.physics = physics;
-  judged.held_out = heldOutErrors(grid, strokes, extended, options.split(strokes.cycles));
   const HeldOutComparison test = compareHeldOut(base, judged.held_out, options.significance);
   candidate.error_reduction = test.error_reduction;
   candidate.t_statistic = test.t_statistic;

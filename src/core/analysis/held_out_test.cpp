@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <tuple>
 #include <utility>
@@ -14,21 +15,19 @@
 namespace die_cushion_ident {
 
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                            const IdentificationConfig& config, int split) {
+                            const IdentificationConfig& config, int split, bool side_by_side) {
   HeldOutErrors result;
   result.cycle_rms.assign(strokes.cycles, std::numeric_limits<double>::quiet_NaN());
   const HydraulicModel model =
       HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
-  double total = 0.0;
-  int total_n = 0;
-  for (int fold = 0; fold < 2; ++fold) {
-    const int fit_first = fold == 0 ? 0 : split, fit_last = fold == 0 ? split - 1 : strokes.cycles - 1;
-    const int test_first = fold == 0 ? split : 0, test_last = fold == 0 ? strokes.cycles - 1 : split - 1;
-    const HydraulicEstimate e = fitOnCycles(grid, strokes, config, fit_first, fit_last);
-    const ParameterVector theta = e.values();
+  // Each fold fills only its own held-out cycles' sums.
+  std::vector<double> sum(strokes.cycles, 0.0);
+  std::vector<int> count(strokes.cycles, 0);
+  const auto fold = [&](int which) {
+    const int fit_first = which == 0 ? 0 : split, fit_last = which == 0 ? split - 1 : strokes.cycles - 1;
+    const int test_first = which == 0 ? split : 0, test_last = which == 0 ? strokes.cycles - 1 : split - 1;
+    const ParameterVector theta = fitOnCycles(grid, strokes, config, fit_first, fit_last).values();
     FreeRunPressure free_run(model, config.min_pressure);
-    std::vector<double> sum(strokes.cycles, 0.0);
-    std::vector<int> count(strokes.cycles, 0);
     for (int c = test_first; c <= test_last; ++c) {
       const auto [begin, end] = strokes.range(c, c);
       for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
@@ -41,12 +40,17 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
         ++count[c];
       }
     }
-    for (int c = test_first; c <= test_last; ++c) {
-      if (count[c] == 0) continue;
-      result.cycle_rms[c] = std::sqrt(sum[c] / count[c]);
-      total += sum[c];
-      total_n += count[c];
-    }
+  };
+  std::future<void> second = std::async(side_by_side ? std::launch::async : std::launch::deferred, fold, 1);
+  fold(0);
+  second.get();
+  double total = 0.0;
+  int total_n = 0;
+  for (int c = 0; c < strokes.cycles; ++c) {
+    if (count[c] == 0) continue;
+    result.cycle_rms[c] = std::sqrt(sum[c] / count[c]);
+    total += sum[c];
+    total_n += count[c];
   }
   result.rms = total_n > 0 ? std::sqrt(total / total_n) : 0.0;
   return result;

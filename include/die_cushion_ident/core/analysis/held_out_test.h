@@ -16,8 +16,10 @@ struct HeldOutErrors {
   double rms = 0.0;               ///< [Pa] over all held-out samples
 };
 
+/// `side_by_side`: the two folds on two threads (the ranking's candidates are fewer than the cores' work
+/// items otherwise); the result is the same.
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                            const IdentificationConfig& config, int split);
+                            const IdentificationConfig& config, int split, bool side_by_side = false);
 
 /// A model against its base on the same held-out cycles: the cycles are the independent units of a paired
 /// one-sided t test on the log ratio of their errors (a stroke holds thousands of strongly correlated

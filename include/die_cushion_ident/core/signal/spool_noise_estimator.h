@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <memory>
 
 namespace die_cushion_ident {
@@ -17,12 +18,15 @@ class SpoolNoiseEstimator {
   void add(double previous, double current, double next);
   /// The noise's standard deviation; +infinity until 32 second differences are in.
   double sigma() const;
+  /// Second differences the median holds (all of the first 256, then one in four).
   long count() const { return count_; }
 
  private:
   struct Median;
   std::unique_ptr<Median> median_;
+  long offered_ = 0;
   long count_ = 0;
+  double sigma_ = std::numeric_limits<double>::infinity();
 };
 
 }  // namespace die_cushion_ident
