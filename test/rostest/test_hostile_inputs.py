@@ -14,7 +14,8 @@ from sensor_msgs.msg import FluidPressure, JointState
 from die_cushion_ident.msg import ValveSignal
 from die_cushion_ident.srv import AbortSweep, Reset, SetEffects, StartSweep
 
-NS = "/die_cushion/ident/"
+# The node and, beside it on the same topics, the nodelet in a manager (hostile_inputs.test starts both).
+NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
 
 
 class HostileInputs(unittest.TestCase):
@@ -27,18 +28,16 @@ class HostileInputs(unittest.TestCase):
         cls.pressure = rospy.Publisher("/die_cushion/pressure", FluidPressure, queue_size=1000)
         cls.position = rospy.Publisher("/die_cushion/position", JointState, queue_size=1000)
         cls.valve = rospy.Publisher("/die_cushion/valve", ValveSignal, queue_size=1000)
-        rospy.wait_for_service(NS + "start_sweep", timeout=30)
-        cls.start = rospy.ServiceProxy(NS + "start_sweep", StartSweep)
-        cls.abort = rospy.ServiceProxy(NS + "abort_sweep", AbortSweep)
-        cls.effects = rospy.ServiceProxy(NS + "set_effects", SetEffects)
-        cls.reset = rospy.ServiceProxy(NS + "reset", Reset)
+        for ns in NAMESPACES:
+            rospy.wait_for_service(ns + "start_sweep", timeout=30)
         rospy.sleep(1.0)  # connections
 
     @classmethod
     def _on_diagnostics(cls, msg):
         with cls.lock:
             for s in msg.status:
-                cls.statuses[s.name.split(": ", 1)[-1]] = s
+                prefix, _, name = s.name.partition(": ")
+                cls.statuses[(prefix, name)] = s
 
     def send(self, t, p=1e6, x=0.01, v=0.0, u=0.0, y=0.0, empty_position=False):
         stamp = rospy.Time(t) if t >= 0 and math.isfinite(t) else rospy.Time(0)
@@ -75,28 +74,37 @@ class HostileInputs(unittest.TestCase):
             if i % 100 == 0:
                 rospy.sleep(0.01)
         # The rejections show in the next diagnostics (1 Hz); on a loaded machine that may take a few.
+        inputs = [(ns.strip("/"), n) for ns in NAMESPACES for n in ["input pressure", "input position", "input valve"]]
         deadline = rospy.Time.now() + rospy.Duration(10.0)
         while rospy.Time.now() < deadline:
             rospy.sleep(0.5)
             with self.lock:
                 statuses = dict(self.statuses)
-            names = ["input pressure", "input position", "input valve"]
             if all(n in statuses and int({kv.key: kv.value for kv in statuses[n].values}["rejected"]) > 0
-                   for n in names):
+                   for n in inputs):
                 break
-        for name in ["input pressure", "input position", "input valve"]:
+        for name in inputs:
             self.assertIn(name, statuses)
             status = statuses[name]
             values = {kv.key: kv.value for kv in status.values}
             self.assertGreater(int(values["rejected"]), 0, name)
             self.assertNotEqual(values["last rejection"], "none", name)
-        estimator = {kv.key: kv.value for kv in statuses["estimator"].values}
-        for key, value in estimator.items():
-            if key.endswith("]"):
-                self.assertNotIn("nan", value.lower(), key)
-                self.assertNotIn("inf", value.lower(), key)
+        for ns in NAMESPACES:
+            estimator = {kv.key: kv.value for kv in statuses[(ns.strip("/"), "estimator")].values}
+            for key, value in estimator.items():
+                if key.endswith("]"):
+                    self.assertNotIn("nan", value.lower(), ns + key)
+                    self.assertNotIn("inf", value.lower(), ns + key)
 
     def test_2_hostile_service_requests(self):
+        for ns in NAMESPACES:
+            self.hostile_service_requests(ns)
+
+    def hostile_service_requests(self, ns):
+        start = rospy.ServiceProxy(ns + "start_sweep", StartSweep)
+        abort = rospy.ServiceProxy(ns + "abort_sweep", AbortSweep)
+        set_effects = rospy.ServiceProxy(ns + "set_effects", SetEffects)
+        reset = rospy.ServiceProxy(ns + "reset", Reset)
         nan, inf = float("nan"), float("inf")
         cases = [
             dict(frequencies=[nan], amplitude=0.5),
@@ -115,21 +123,21 @@ class HostileInputs(unittest.TestCase):
         for fields in cases:
             request = dict(frequencies=[], amplitude=0.0, offset=0.0, settle_periods=0.0, integration_periods=0.0)
             request.update(fields)
-            response = self.start(**request)
+            response = start(**request)
             self.assertFalse(response.success, str(fields)[:80])
             self.assertTrue(response.message.startswith("sweep refused: ") and len(response.message) > 20,
                             response.message)
-        self.assertFalse(self.abort().success)
+        self.assertFalse(abort().success)
         for effects, custom in [(["leakage", ""], []), (["x" * 10000], []), (["leakage"], ["=p"]), ([], ["a=p*("]),
                                 ([], ["b=sqrt(p"]), ([], ["c=unknown_signal*2"]), (["leakage", "leakage"], [])]:
-            response = self.effects(effects=effects, custom_effects=custom)
+            response = set_effects(effects=effects, custom_effects=custom)
             if response.success:  # a duplicate may be accepted, but then it is one effect
                 self.assertEqual(len(response.parameters), len(set(response.parameters)))
             else:
                 self.assertTrue(response.message.startswith("effects refused: "), response.message)
-        self.assertTrue(self.reset().success)
+        self.assertTrue(reset().success)
         # Still alive and answering.
-        rospy.wait_for_service(NS + "start_sweep", timeout=5)
+        rospy.wait_for_service(ns + "start_sweep", timeout=5)
 
 
 if __name__ == "__main__":

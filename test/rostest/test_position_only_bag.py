@@ -16,7 +16,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from die_cushion_ident.msg import ModelComparison
 
-NS = "/die_cushion/ident/"
+# The node and, beside it on the same played bag, the nodelet (position_only_bag.test starts both).
+NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
 
 
 def tool(name):
@@ -31,9 +32,10 @@ class PositionOnlyBag(unittest.TestCase):
         rospy.init_node("test_position_only_bag")
         cls.lock = threading.Lock()
         cls.diagnostics = {}
-        cls.comparisons = []
+        cls.comparisons = {ns: [] for ns in NAMESPACES}
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
-        rospy.Subscriber(NS + "model_comparison", ModelComparison, cls._on_comparison)
+        for ns in NAMESPACES:
+            rospy.Subscriber(ns + "model_comparison", ModelComparison, cls._on_comparison, ns)
         cls.directory = tempfile.mkdtemp(prefix="position_only_bag_")
         cls.bag = os.path.join(cls.directory, "press.bag")
         subprocess.run([tool("simulate_bag"), cls.bag, "--cycles", "12", "--plant-effects", "leakage",
@@ -50,45 +52,47 @@ class PositionOnlyBag(unittest.TestCase):
     def _on_diagnostics(cls, msg):
         with cls.lock:
             for status in msg.status:
-                cls.diagnostics[status.name.split(": ", 1)[-1]] = status
+                prefix, _, name = status.name.partition(": ")
+                cls.diagnostics[(prefix, name)] = status
 
     @classmethod
-    def _on_comparison(cls, msg):
+    def _on_comparison(cls, msg, ns):
         with cls.lock:
-            cls.comparisons.append(msg)
+            cls.comparisons[ns].append(msg)
 
-    def diagnostic(self, name):
+    def diagnostic(self, ns, name):
         with self.lock:
-            return self.diagnostics.get(name)
+            return self.diagnostics.get((ns.strip("/"), name))
 
     def test_comparison_and_adequacy_run_on_position_only_data(self):
         # The bag lasts 31 s: wait (in wall time, the bag's clock may not have started) for the end.
         self.player.wait(timeout=120)
         time.sleep(1.0)  # wall time: the bag's clock has stopped
-        with self.lock:
-            comparisons = list(self.comparisons)
-        self.assertGreater(len(comparisons), 100)
-        finite = [c for c in comparisons if math.isfinite(c.modelled_pressure) and math.isfinite(c.velocity)]
-        self.assertGreater(len(finite), 0.5 * len(comparisons),
-                           "the velocity is derived from the position and the model runs")
-        moving = [c for c in finite if abs(c.velocity) > 0.1]
-        self.assertTrue(moving, "the derived velocity shows the strokes")
-        last = comparisons[-1]
-        self.assertTrue(math.isfinite(last.simulation_error_rms))
-        self.assertLess(last.simulation_error_rms, 3e5, "the right model follows the pressure within 3 bar")
+        for ns in NAMESPACES:
+            with self.lock:
+                comparisons = list(self.comparisons[ns])
+            self.assertGreater(len(comparisons), 100, ns)
+            finite = [c for c in comparisons if math.isfinite(c.modelled_pressure) and math.isfinite(c.velocity)]
+            self.assertGreater(len(finite), 0.5 * len(comparisons),
+                               "the velocity is derived from the position and the model runs")
+            moving = [c for c in finite if abs(c.velocity) > 0.1]
+            self.assertTrue(moving, "the derived velocity shows the strokes")
+            last = comparisons[-1]
+            self.assertTrue(math.isfinite(last.simulation_error_rms))
+            self.assertLess(last.simulation_error_rms, 3e5, "the right model follows the pressure within 3 bar")
 
-        adequacy = self.diagnostic("model adequacy")
-        self.assertIsNotNone(adequacy)
-        self.assertNotIn("not enough data", adequacy.message)
-        self.assertIn("the model follows the pressure", adequacy.message)
-        timing = self.diagnostic("input timing")
-        self.assertIsNotNone(timing)
-        values = {kv.key: kv.value for kv in timing.values}
-        self.assertAlmostEqual(float(values["delay of position stamps [ms]"]), 10.0, delta=1.0,
-                               msg=timing.message)
-        self.assertEqual(timing.level, DiagnosticStatus.WARN, "a 10 ms offset is worth a warning")
-        position = self.diagnostic("input position")
-        self.assertEqual(position.level, DiagnosticStatus.OK, position.message)
+            adequacy = self.diagnostic(ns, "model adequacy")
+            self.assertIsNotNone(adequacy)
+            self.assertNotIn("not enough data", adequacy.message)
+            self.assertIn("the model follows the pressure", adequacy.message)
+            timing = self.diagnostic(ns, "input timing")
+            self.assertIsNotNone(timing)
+            values = {kv.key: kv.value for kv in timing.values}
+            self.assertAlmostEqual(float(values["delay of position stamps [ms]"]), 10.0, delta=1.0,
+                                   msg=timing.message)
+            self.assertEqual(timing.level, DiagnosticStatus.WARN, "a 10 ms offset is worth a warning")
+            position = self.diagnostic(ns, "input position")
+            self.assertEqual(position.level, DiagnosticStatus.OK, position.message)
 
 
 if __name__ == "__main__":
