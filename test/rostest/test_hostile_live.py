@@ -17,30 +17,34 @@ from die_cushion_ident.msg import ModelComparison, ParameterEstimate, ValveSigna
 from die_cushion_ident.srv import SetEffects
 from rostest_helpers import Latest, value, wait_for_clock
 
-NS = "/die_cushion/ident/"
+# The node and, beside it on the same (hostile) inputs, the nodelet (hostile_live.test starts both).
+NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
 
 
 class HostileLive(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("test_hostile_live")
-        cls.estimate = Latest(NS + "estimate", ParameterEstimate)
-        cls.comparison = Latest(NS + "model_comparison", ModelComparison)
+        cls.estimate = {ns: Latest(ns + "estimate", ParameterEstimate) for ns in NAMESPACES}
+        cls.comparison = {ns: Latest(ns + "model_comparison", ModelComparison) for ns in NAMESPACES}
         cls.truth = Latest("/die_cushion/simulator/truth", ParameterEstimate)
         cls.lock = threading.Lock()
-        cls.seen = {}  # diagnostic name -> list of (level, message)
+        cls.seen = {}  # (name prefix, diagnostic name) -> list of (level, message)
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
         cls.pressure = rospy.Publisher("/die_cushion/pressure", FluidPressure, queue_size=10000)
         cls.position = rospy.Publisher("/die_cushion/position", JointState, queue_size=10000)
         cls.valve = rospy.Publisher("/die_cushion/valve", ValveSignal, queue_size=10000)
-        rospy.wait_for_service(NS + "set_effects", timeout=60)
-        cls.set_effects = rospy.ServiceProxy(NS + "set_effects", SetEffects)
+        cls.set_effects = {}
+        for ns in NAMESPACES:
+            rospy.wait_for_service(ns + "set_effects", timeout=60)
+            cls.set_effects[ns] = rospy.ServiceProxy(ns + "set_effects", SetEffects)
 
     @classmethod
     def _on_diagnostics(cls, msg):
         with cls.lock:
             for s in msg.status:
-                cls.seen.setdefault(s.name.split(": ", 1)[-1], []).append((s.level, s.message))
+                prefix, _, name = s.name.partition(": ")
+                cls.seen.setdefault((prefix, name), []).append((s.level, s.message))
 
     def wait_sim(self, seconds):
         wait_for_clock()
@@ -49,7 +53,11 @@ class HostileLive(unittest.TestCase):
             time.sleep(0.05)
 
     def expect_right(self, what):
-        estimate, truth = self.estimate.get(), self.truth.get()
+        """Every target's estimates right and finite; returns them by namespace."""
+        return {ns: self.expect_right_in(ns, ns + " " + what) for ns in NAMESPACES}
+
+    def expect_right_in(self, ns, what):
+        estimate, truth = self.estimate[ns].get(), self.truth.get()
         self.assertIsNotNone(estimate, what)
         for name, bound in [("bulk_modulus", 0.05), ("valve_flow_gain", 0.02)]:
             self.assertTrue(math.isfinite(value(estimate, name)), "%s: %s" % (what, name))
@@ -58,13 +66,14 @@ class HostileLive(unittest.TestCase):
         for std in estimate.standard_deviations:
             self.assertTrue(math.isfinite(std), what)
         self.assertTrue(math.isfinite(estimate.equation_error_rms), what)
-        comparison = self.comparison.get()
+        comparison = self.comparison[ns].get()
         self.assertTrue(math.isfinite(comparison.simulation_error_rms), what)
         return estimate
 
     def test_hostile_cases_are_rejected_named_and_recovered_from(self):
         deadline = time.time() + 60
-        while time.time() < deadline and (self.estimate.get() is None or self.truth.get() is None):
+        while time.time() < deadline and (any(e.get() is None for e in self.estimate.values())
+                                          or self.truth.get() is None):
             time.sleep(0.2)
         self.wait_sim(8.0)  # three strokes
         before = self.expect_right("before")
@@ -86,7 +95,8 @@ class HostileLive(unittest.TestCase):
                                            spool_position=0.0))
             self.wait_sim(1.0)
         after_wild = self.expect_right("after single wild stamps")
-        self.assertGreater(after_wild.updates, before.updates, "the identification was not restarted")
+        for ns in NAMESPACES:
+            self.assertGreater(after_wild[ns].updates, before[ns].updates, ns + ": the identification was not restarted")
 
         # 3. The position clock 1000 s ahead for 5 s (the simulator's own position messages go on too).
         end = rospy.Time.now() + rospy.Duration(5.0)
@@ -97,18 +107,21 @@ class HostileLive(unittest.TestCase):
             time.sleep(0.002)
         self.wait_sim(3.0)
         after_clock = self.expect_right("after a position clock 1000 s ahead")
-        self.assertGreater(after_clock.updates, after_wild.updates, "not restarted, not stopped")
-        with self.lock:
-            position = list(self.seen.get("input position", []))
-            pressure = list(self.seen.get("input pressure", []))
-        self.assertTrue(any(level == DiagnosticStatus.ERROR and "clock jumped" in message
-                            for level, message in position), "the position topic is named")
-        self.assertFalse(any("stale" in message for _, message in pressure), "the healthy topics are not blamed")
+        for ns in NAMESPACES:
+            self.assertGreater(after_clock[ns].updates, after_wild[ns].updates, ns + ": not restarted, not stopped")
+            with self.lock:
+                position = list(self.seen.get((ns.strip("/"), "input position"), []))
+                pressure = list(self.seen.get((ns.strip("/"), "input pressure"), []))
+            self.assertTrue(any(level == DiagnosticStatus.ERROR and "clock jumped" in message
+                                for level, message in position), ns + ": the position topic is named")
+            self.assertFalse(any("stale" in message for _, message in pressure),
+                             ns + ": the healthy topics are not blamed")
 
         # 4. A custom term worth 1e300 is refused with the reason; the model stays as it was.
-        response = self.set_effects(effects=["leakage"], custom_effects=["x=(p>100e5)?1e300:0"])
-        self.assertFalse(response.success)
-        self.assertIn("1e+300", response.message)
+        for ns in NAMESPACES:
+            response = self.set_effects[ns](effects=["leakage"], custom_effects=["x=(p>100e5)?1e300:0"])
+            self.assertFalse(response.success, ns)
+            self.assertIn("1e+300", response.message)
         self.wait_sim(1.0)
         self.expect_right("after the refused custom term")
 
