@@ -142,12 +142,24 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
     }
     pass.present.insert(names[s]);
   };
+  // Each connection classified once (its topic and definition compared), not each of its messages:
+  // its input stream, -1 for another topic, -2 for a definition (md5sum) other than this package's.
+  std::vector<std::pair<const BagStreamReader::Connection*, int>> classified;
+  const auto classify = [&](const BagStreamReader::Connection* c) {
+    for (const auto& [known, s] : classified) {
+      if (known == c) return s;
+    }
+    int s = stream_of(*c);
+    if (s >= 0 && c->md5sum != kMd5[s]) s = -2;
+    classified.emplace_back(c, s);
+    return s;
+  };
   const auto on_message = [&](const BagStreamReader::Message& m) {
     if (std::isnan(pass.first)) pass.first = m.time;
     pass.last = m.time;
-    const int s = stream_of(*m.connection);
-    if (s < 0) return;
-    if (m.connection->md5sum != kMd5[s]) {
+    const int s = classify(m.connection);
+    if (s == -1) return;
+    if (s == -2) {
       ++pass.mismatched;
       return;
     }

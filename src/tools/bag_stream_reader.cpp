@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string_view>
 #include <limits>
 #include <stdexcept>
 
@@ -38,6 +39,41 @@ bool parseFields(const std::uint8_t* data, std::size_t size, std::map<std::strin
     if (!equals) return false;
     const std::size_t name_length = static_cast<const char*>(equals) - text;
     (*fields)[std::string(text, name_length)] = std::string(text + name_length + 1, length - name_length - 1);
+    at += length;
+  }
+  return true;
+}
+
+// The same fields without copying them into a map: a message record's header (op, conn, time) is parsed
+// ten million times an hour, and the map's allocations were a tenth of the reading.
+struct FieldViews {
+  static constexpr int kMax = 8;
+  std::string_view names[kMax], values[kMax];
+  int count = 0;
+  std::string_view operator[](std::string_view name) const {
+    for (int i = 0; i < count; ++i) {
+      if (names[i] == name) return values[i];
+    }
+    return {};
+  }
+};
+
+// False when the fields do not fit, or there are more than a message record has any need for.
+bool parseFieldViews(const std::uint8_t* data, std::size_t size, FieldViews* fields) {
+  fields->count = 0;
+  std::size_t at = 0;
+  while (at < size) {
+    if (size - at < 4 || fields->count == FieldViews::kMax) return false;
+    const std::uint32_t length = readU32(data + at);
+    at += 4;
+    if (length > size - at) return false;
+    const char* text = reinterpret_cast<const char*>(data + at);
+    const void* equals = std::memchr(text, '=', length);
+    if (!equals) return false;
+    const std::size_t name_length = static_cast<const char*>(equals) - text;
+    fields->names[fields->count] = std::string_view(text, name_length);
+    fields->values[fields->count] = std::string_view(text + name_length + 1, length - name_length - 1);
+    ++fields->count;
     at += length;
   }
   return true;
@@ -223,21 +259,31 @@ bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
     if (data_length > size - at - 4) return fail("a record inside a chunk runs past the chunk");
     const std::uint8_t* body = data + at + 4;
     at += 4 + data_length;
-    Fields fields;
-    if (!parseFields(header, header_length, &fields) || fields["op"].size() != 1) {
-      return fail("a damaged record header inside a chunk");
+    FieldViews views;
+    const bool parsed = parseFieldViews(header, header_length, &views);
+    if (!parsed || views["op"].size() != 1) {
+      // A header with more fields than a message record's: parsed in full, as the other records are.
+      Fields fields;
+      if (parsed || !parseFields(header, header_length, &fields) || fields["op"].size() != 1) {
+        return fail("a damaged record header inside a chunk");
+      }
+      if (static_cast<std::uint8_t>(fields["op"][0]) == kOpConnection &&
+          !addConnection(fields, body, data_length, on_connection)) {
+        return false;
+      }
+      continue;
     }
-    const std::uint8_t op = static_cast<std::uint8_t>(fields["op"][0]);
+    const std::uint8_t op = static_cast<std::uint8_t>(views["op"][0]);
     if (op == kOpConnection) {
+      Fields fields;
+      parseFields(header, header_length, &fields);
       if (!addConnection(fields, body, data_length, on_connection)) return false;
     } else if (op == kOpMessageData) {
-      const auto conn = fields.find("conn");
-      const auto time = fields.find("time");
-      if (conn == fields.end() || conn->second.size() != 4 || time == fields.end() || time->second.size() != 8)
-        return fail("a damaged message record");
-      const auto c = connections_.find(readU32(reinterpret_cast<const std::uint8_t*>(conn->second.data())));
+      const std::string_view conn = views["conn"], time = views["time"];
+      if (conn.size() != 4 || time.size() != 8) return fail("a damaged message record");
+      const auto c = connections_.find(readU32(reinterpret_cast<const std::uint8_t*>(conn.data())));
       if (c == connections_.end()) return fail("a message of an unknown connection");
-      const auto* t = reinterpret_cast<const std::uint8_t*>(time->second.data());
+      const auto* t = reinterpret_cast<const std::uint8_t*>(time.data());
       Message m;
       m.connection = &c->second;
       m.time = readU32(t) + 1e-9 * readU32(t + 4);
