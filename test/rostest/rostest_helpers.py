@@ -45,3 +45,42 @@ def wait_for(predicate, timeout, what):
             return
         rospy.sleep(0.2)
     raise AssertionError("timed out (%.0f s sim time) waiting for %s" % (timeout, what))
+
+
+class Diagnostics:
+    """Every status on /diagnostics by (name prefix, diagnostic name): the prefix is the identification's own
+    name without the leading slash ("die_cushion/ident"), so that a node and a nodelet side by side are told
+    apart. Keeps the latest status and, per diagnostic, the (level, message) history."""
+
+    def __init__(self):
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self._lock = threading.Lock()
+        self._latest = {}
+        self._history = {}
+        self._sub = rospy.Subscriber("/diagnostics", DiagnosticArray, self._store)
+
+    def _store(self, msg):
+        with self._lock:
+            for status in msg.status:
+                prefix, _, name = status.name.partition(": ")
+                self._latest[(prefix, name)] = status
+                self._history.setdefault((prefix, name), []).append((status.level, status.message))
+
+    def get(self, ns, name):
+        """The latest status of diagnostic `name` of the identification in namespace `ns` (or None)."""
+        with self._lock:
+            return self._latest.get((ns.strip("/"), name))
+
+    def history(self, ns, name):
+        with self._lock:
+            return list(self._history.get((ns.strip("/"), name), []))
+
+    def prefixes(self):
+        with self._lock:
+            return {prefix for prefix, _ in self._latest}
+
+
+def values_of(status):
+    """A status's key/values as a dict."""
+    return {kv.key: kv.value for kv in status.values}

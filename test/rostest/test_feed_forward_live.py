@@ -10,11 +10,11 @@ import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import FluidPressure
 
 from die_cushion_ident.msg import ParameterEstimate, ValveSignal
-from rostest_helpers import Latest, wait_for, wait_for_clock
+from rostest_helpers import Diagnostics, Latest, wait_for, wait_for_clock
 
 # The node and, beside it on the same inputs and set-point, the nodelet (feed_forward_live.test starts both).
 NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
@@ -26,12 +26,11 @@ class FeedForwardLive(unittest.TestCase):
         rospy.init_node("test_feed_forward_live")
         cls.lock = threading.Lock()
         cls.commands = {ns: [] for ns in NAMESPACES}
-        cls.diagnostics = {ns: None for ns in NAMESPACES}
+        cls.diagnostics = Diagnostics()
         cls.estimates = {}
         for ns in NAMESPACES:
             rospy.Subscriber(ns + "feed_forward", ValveSignal, cls._on_command, ns)
             cls.estimates[ns] = Latest(ns + "estimate", ParameterEstimate)
-        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
         cls.setpoint = rospy.Publisher("/die_cushion/pressure_setpoint", FluidPressure, queue_size=100)
         cls.value = 100e5  # what the stream sends; None: silent
 
@@ -40,17 +39,8 @@ class FeedForwardLive(unittest.TestCase):
         with cls.lock:
             cls.commands[ns].append(msg.voltage)
 
-    @classmethod
-    def _on_diagnostics(cls, msg):
-        with cls.lock:
-            for s in msg.status:
-                prefix, _, name = s.name.partition(": ")
-                if name == "feed-forward" and "/" + prefix + "/" in cls.diagnostics:
-                    cls.diagnostics["/" + prefix + "/"] = s
-
     def diagnostic(self, ns):
-        with self.lock:
-            return self.diagnostics[ns]
+        return self.diagnostics.get(ns, "feed-forward")
 
     def stream(self, stop):
         while not stop.is_set() and not rospy.is_shutdown():

@@ -3,16 +3,15 @@
 JointState arrays, bursts; service requests with non-finite, negative, huge and above-Nyquist values and
 unknown effects. The node stays up, every refusal has a reason, the diagnostics count the rejections."""
 import math
-import threading
 import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from sensor_msgs.msg import FluidPressure, JointState
 
 from die_cushion_ident.msg import ValveSignal
 from die_cushion_ident.srv import AbortSweep, Reset, SetEffects, StartSweep
+from rostest_helpers import Diagnostics, values_of
 
 # The node and, beside it on the same topics, the nodelet in a manager (hostile_inputs.test starts both).
 NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
@@ -22,22 +21,13 @@ class HostileInputs(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("test_hostile_inputs")
-        cls.lock = threading.Lock()
-        cls.statuses = {}
-        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
+        cls.diagnostics = Diagnostics()
         cls.pressure = rospy.Publisher("/die_cushion/pressure", FluidPressure, queue_size=1000)
         cls.position = rospy.Publisher("/die_cushion/position", JointState, queue_size=1000)
         cls.valve = rospy.Publisher("/die_cushion/valve", ValveSignal, queue_size=1000)
         for ns in NAMESPACES:
             rospy.wait_for_service(ns + "start_sweep", timeout=30)
         rospy.sleep(1.0)  # connections
-
-    @classmethod
-    def _on_diagnostics(cls, msg):
-        with cls.lock:
-            for s in msg.status:
-                prefix, _, name = s.name.partition(": ")
-                cls.statuses[(prefix, name)] = s
 
     def send(self, t, p=1e6, x=0.01, v=0.0, u=0.0, y=0.0, empty_position=False):
         stamp = rospy.Time(t) if t >= 0 and math.isfinite(t) else rospy.Time(0)
@@ -74,23 +64,23 @@ class HostileInputs(unittest.TestCase):
             if i % 100 == 0:
                 rospy.sleep(0.01)
         # The rejections show in the next diagnostics (1 Hz); on a loaded machine that may take a few.
-        inputs = [(ns.strip("/"), n) for ns in NAMESPACES for n in ["input pressure", "input position", "input valve"]]
+        inputs = [(ns, n) for ns in NAMESPACES for n in ["input pressure", "input position", "input valve"]]
+
+        def rejected(ns, name):
+            status = self.diagnostics.get(ns, name)
+            return status is not None and int(values_of(status)["rejected"]) > 0
+
         deadline = rospy.Time.now() + rospy.Duration(10.0)
-        while rospy.Time.now() < deadline:
+        while rospy.Time.now() < deadline and not all(rejected(ns, name) for ns, name in inputs):
             rospy.sleep(0.5)
-            with self.lock:
-                statuses = dict(self.statuses)
-            if all(n in statuses and int({kv.key: kv.value for kv in statuses[n].values}["rejected"]) > 0
-                   for n in inputs):
-                break
-        for name in inputs:
-            self.assertIn(name, statuses)
-            status = statuses[name]
-            values = {kv.key: kv.value for kv in status.values}
-            self.assertGreater(int(values["rejected"]), 0, name)
-            self.assertNotEqual(values["last rejection"], "none", name)
+        for ns, name in inputs:
+            status = self.diagnostics.get(ns, name)
+            self.assertIsNotNone(status, ns + name)
+            values = values_of(status)
+            self.assertGreater(int(values["rejected"]), 0, ns + name)
+            self.assertNotEqual(values["last rejection"], "none", ns + name)
         for ns in NAMESPACES:
-            estimator = {kv.key: kv.value for kv in statuses[(ns.strip("/"), "estimator")].values}
+            estimator = values_of(self.diagnostics.get(ns, "estimator"))
             for key, value in estimator.items():
                 if key.endswith("]"):
                     self.assertNotIn("nan", value.lower(), ns + key)

@@ -4,18 +4,17 @@
 identification; a position clock 1000 s ahead for 5 s stopped the estimates and blamed the healthy topics;
 set_effects accepted a term worth 1e300. Now each is rejected and named, and the estimates stay right."""
 import math
-import threading
 import time
 import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import FluidPressure, JointState
 
 from die_cushion_ident.msg import ModelComparison, ParameterEstimate, ValveSignal
 from die_cushion_ident.srv import SetEffects
-from rostest_helpers import Latest, value, wait_for_clock
+from rostest_helpers import Diagnostics, Latest, value, wait_for_clock
 
 # The node and, beside it on the same (hostile) inputs, the nodelet (hostile_live.test starts both).
 NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
@@ -28,9 +27,7 @@ class HostileLive(unittest.TestCase):
         cls.estimate = {ns: Latest(ns + "estimate", ParameterEstimate) for ns in NAMESPACES}
         cls.comparison = {ns: Latest(ns + "model_comparison", ModelComparison) for ns in NAMESPACES}
         cls.truth = Latest("/die_cushion/simulator/truth", ParameterEstimate)
-        cls.lock = threading.Lock()
-        cls.seen = {}  # (name prefix, diagnostic name) -> list of (level, message)
-        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
+        cls.diagnostics = Diagnostics()
         cls.pressure = rospy.Publisher("/die_cushion/pressure", FluidPressure, queue_size=10000)
         cls.position = rospy.Publisher("/die_cushion/position", JointState, queue_size=10000)
         cls.valve = rospy.Publisher("/die_cushion/valve", ValveSignal, queue_size=10000)
@@ -38,13 +35,6 @@ class HostileLive(unittest.TestCase):
         for ns in NAMESPACES:
             rospy.wait_for_service(ns + "set_effects", timeout=60)
             cls.set_effects[ns] = rospy.ServiceProxy(ns + "set_effects", SetEffects)
-
-    @classmethod
-    def _on_diagnostics(cls, msg):
-        with cls.lock:
-            for s in msg.status:
-                prefix, _, name = s.name.partition(": ")
-                cls.seen.setdefault((prefix, name), []).append((s.level, s.message))
 
     def wait_sim(self, seconds):
         wait_for_clock()
@@ -109,9 +99,8 @@ class HostileLive(unittest.TestCase):
         after_clock = self.expect_right("after a position clock 1000 s ahead")
         for ns in NAMESPACES:
             self.assertGreater(after_clock[ns].updates, after_wild[ns].updates, ns + ": not restarted, not stopped")
-            with self.lock:
-                position = list(self.seen.get((ns.strip("/"), "input position"), []))
-                pressure = list(self.seen.get((ns.strip("/"), "input pressure"), []))
+            position = self.diagnostics.history(ns, "input position")
+            pressure = self.diagnostics.history(ns, "input pressure")
             self.assertTrue(any(level == DiagnosticStatus.ERROR and "clock jumped" in message
                                 for level, message in position), ns + ": the position topic is named")
             self.assertFalse(any("stale" in message for _, message in pressure),

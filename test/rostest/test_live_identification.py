@@ -1,16 +1,15 @@
 #!/usr/bin/python3
 """Live identification on ROS: estimates converge to the simulator's truth, diagnostics report the right
 levels, set_effects changes the model, unsafe and invalid sweep requests are refused."""
-import threading
 import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 
 from die_cushion_ident.msg import EffectRanking, ModelComparison, ParameterEstimate
 from die_cushion_ident.srv import SetEffects, StartSweep
-from rostest_helpers import Latest, value, wait_for
+from rostest_helpers import Diagnostics, Latest, value, wait_for
 
 # The same checks on the identification as a nodelet in a manager and as its own node, side by side on
 # one simulator (live_identification.test starts both).
@@ -22,7 +21,6 @@ class Target:
 
     def __init__(self, ns):
         self.ns = ns
-        self.prefix = ns.strip("/")  # diagnostic_updater drops the leading slash
         self.estimate = Latest(ns + "estimate", ParameterEstimate)
         self.comparison = Latest(ns + "model_comparison", ModelComparison)
         self.ranking = Latest(ns + "effect_ranking", EffectRanking)
@@ -36,23 +34,11 @@ class LiveIdentification(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("test_live_identification")
         cls.truth = Latest("/die_cushion/simulator/truth", ParameterEstimate)
-        cls.diagnostics = {}
-        cls.prefixes = set()
-        cls.lock = threading.Lock()
-        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
+        cls.diagnostics = Diagnostics()
         cls.targets = [Target(ns) for ns in NAMESPACES]
 
-    @classmethod
-    def _on_diagnostics(cls, msg):
-        with cls.lock:
-            for status in msg.status:
-                prefix, _, name = status.name.partition(": ")
-                cls.diagnostics[(prefix, name)] = status
-                cls.prefixes.add(prefix)
-
     def diagnostic(self, target, name):
-        with self.lock:
-            return self.diagnostics.get((target.prefix, name))
+        return self.diagnostics.get(target.ns, name)
 
     def test_1_estimates_converge_to_truth_and_diagnostics_are_ok(self):
         wait_for(lambda: self.truth.get() is not None and all(t.estimate.get() is not None for t in self.targets),
@@ -72,8 +58,7 @@ class LiveIdentification(unittest.TestCase):
             self.assertLess(target.comparison.get().simulation_error_rms, 3e5)
         # Each identification's diagnostics carry its own name; the nodelet's not the manager's (two nodelets
         # in one manager must not collide).
-        with self.lock:
-            prefixes = set(self.prefixes)
+        prefixes = self.diagnostics.prefixes()
         self.assertIn("die_cushion/ident", prefixes)
         self.assertIn("die_cushion/ident_node", prefixes)
         self.assertNotIn("die_cushion/manager", prefixes)

@@ -12,9 +12,10 @@ import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 
 from die_cushion_ident.msg import ModelComparison
+from rostest_helpers import Diagnostics
 
 # The node and, beside it on the same played bag, the nodelet (position_only_bag.test starts both).
 NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
@@ -31,9 +32,8 @@ class PositionOnlyBag(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("test_position_only_bag")
         cls.lock = threading.Lock()
-        cls.diagnostics = {}
+        cls.diagnostics = Diagnostics()
         cls.comparisons = {ns: [] for ns in NAMESPACES}
-        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
         for ns in NAMESPACES:
             rospy.Subscriber(ns + "model_comparison", ModelComparison, cls._on_comparison, ns)
         cls.directory = tempfile.mkdtemp(prefix="position_only_bag_")
@@ -49,20 +49,12 @@ class PositionOnlyBag(unittest.TestCase):
         cls.player.wait()
 
     @classmethod
-    def _on_diagnostics(cls, msg):
-        with cls.lock:
-            for status in msg.status:
-                prefix, _, name = status.name.partition(": ")
-                cls.diagnostics[(prefix, name)] = status
-
-    @classmethod
     def _on_comparison(cls, msg, ns):
         with cls.lock:
             cls.comparisons[ns].append(msg)
 
     def diagnostic(self, ns, name):
-        with self.lock:
-            return self.diagnostics.get((ns.strip("/"), name))
+        return self.diagnostics.get(ns, name)
 
     def test_comparison_and_adequacy_run_on_position_only_data(self):
         # The bag lasts 31 s: wait (in wall time, the bag's clock may not have started) for the end.

@@ -8,12 +8,11 @@ import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import FluidPressure
 
 from die_cushion_ident.msg import ValveSignal
 from die_cushion_ident.srv import StartStepTest
-from rostest_helpers import wait_for, wait_for_clock
+from rostest_helpers import Diagnostics, values_of, wait_for, wait_for_clock
 
 NS = "/die_cushion/ident/"
 
@@ -25,10 +24,9 @@ class StepTestLive(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.pressure = []  # (stamp, Pa)
         cls.commands = []  # (stamp, V)
-        cls.diagnostic = None
+        cls.diagnostics = Diagnostics()
         rospy.Subscriber("/die_cushion/pressure", FluidPressure, cls._on_pressure, queue_size=10000)
         rospy.Subscriber("/die_cushion/valve_command", ValveSignal, cls._on_command, queue_size=10000)
-        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diagnostics)
         rospy.wait_for_service(NS + "start_step_test", timeout=60)
         cls.start = rospy.ServiceProxy(NS + "start_step_test", StartStepTest)
 
@@ -42,12 +40,8 @@ class StepTestLive(unittest.TestCase):
         with cls.lock:
             cls.commands.append((msg.header.stamp.to_sec(), msg.voltage))
 
-    @classmethod
-    def _on_diagnostics(cls, msg):
-        with cls.lock:
-            for s in msg.status:
-                if s.name.endswith("step test"):
-                    cls.diagnostic = s
+    def diagnostic(self):
+        return self.diagnostics.get(NS, "step test")
 
     def test_step_test_times_the_pressure(self):
         wait_for_clock()
@@ -58,12 +52,12 @@ class StepTestLive(unittest.TestCase):
 
         started = self.start(offset=0.0, step=-0.5, duration=1.5, settle=0.3)
         self.assertTrue(started.success, started.message)
-        wait_for(lambda: self.diagnostic is not None and "t63" in self.diagnostic.message, 15.0,
+        wait_for(lambda: self.diagnostic() is not None and "t63" in self.diagnostic().message, 15.0,
                  "the node's t63")
         with self.lock:
             commands = list(self.commands)
             pressure = sorted(self.pressure)
-            values = {v.key: v.value for v in self.diagnostic.values}
+        values = values_of(self.diagnostic())
         self.assertAlmostEqual(commands[-1][1], 0.0, msg="the command is back at the offset")
         step_time = next(t for t, u in commands if abs(u + 0.5) < 1e-9)
         before = [p for t, p in pressure if step_time - 0.1 <= t < step_time]
