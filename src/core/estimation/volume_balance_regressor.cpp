@@ -10,6 +10,22 @@ namespace {
 enum RawChannel { kT, kP, kX, kU, kY, kRawCount };
 }
 
+namespace {
+
+// The valve model can follow the spool sample by sample when the grid has at least five samples per period
+// of the valve's natural frequency (80 Hz on the 2 ms grid: 6; on 5 ms: 2.5, too few).
+bool resolvesValve(const IdentificationConfig& config) {
+  return config.valve.natural_frequency * config.resampler.sample_period <= 0.2;
+}
+
+// Neighbours each side that judge the port side near the kink: 16 with the valve model (a noise of a sixth of
+// the spool's left in its correction), else the two next to it.
+int sideNeighbours(const IdentificationConfig& config) {
+  return resolvesValve(config) ? VolumeBalanceRegressor::kMaxSideNeighbours : 1;
+}
+
+}  // namespace
+
 VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model,
                                                const IdentificationConfig& config)
     : model_(model),
@@ -17,12 +33,15 @@ VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model,
       dt_(config.resampler.sample_period),
       n_(model.parameterCount()),
       // The integral form closes an increment one sample late (its quadrature looks one sample ahead), and
-      // takes each sample one sample late (the port side looks at the next spool).
+      // takes each sample kSideNeighbours samples late (the port side looks at the spools around it).
       delay_((config.moving_average_width - 1) / 2 + (config.derivative_width - 1) / 2 +
-             (config.regression_form == RegressionForm::kIntegral ? 2 : 0)),
+             (config.regression_form == RegressionForm::kIntegral ? 1 + sideNeighbours(config) : 0)),
       raw_(delay_, kRawCount),
       increment_window_(config.derivative_width - 1, model.parameterCount() + 2),
       window_average_(config.moving_average_width, model.parameterCount() + 2),
+      side_by_model_(resolvesValve(config)),
+      side_neighbours_(sideNeighbours(config)),
+      spool_model_(config.valve, config.resampler.sample_period),
       signal_average_(config.moving_average_width, 5),
       derivative_(config.derivative_width, 2, config.resampler.sample_period),
       aligned_((config.derivative_width - 1) / 2, 5),
@@ -34,6 +53,7 @@ void VolumeBalanceRegressor::clear() {
   increment_window_.clear();
   window_average_.clear();
   pending_count_ = 0;
+  spool_model_started_ = false;
   node_count_ = 0;
   signal_average_.clear();
   derivative_.clear();
@@ -64,25 +84,55 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
   if (form_ == RegressionForm::kDerivative) {
     ready = pushDerivative(sample, usable, point, row);
   } else {
-    if (pending_count_ == 3) {
-      pending_[0] = pending_[1];
-      pending_[1] = pending_[2];
-      pending_count_ = 2;
+    const int span = 2 * side_neighbours_ + 1;
+    if (pending_count_ == span) {
+      for (int k = 0; k + 1 < span; ++k) pending_[k] = pending_[k + 1];
+      pending_count_ = span - 1;
     }
-    pending_[pending_count_++] = {sample, usable};
-    if (pending_count_ == 3) {
+    // The valve model follows the command: near the kink its spool tells the port side with an error that is
+    // independent of the measured spool's noise.
+    double modelled = 0.0;
+    if (side_by_model_ && std::isfinite(sample.u)) {
+      if (!spool_model_started_) {
+        spool_model_.reset(std::isfinite(sample.y) ? sample.y : 0.0);
+        spool_model_started_ = true;
+        modelled = std::isfinite(sample.y) ? sample.y : 0.0;
+      } else {
+        modelled = spool_model_.step(sample.u);
+      }
+    }
+    pending_[pending_count_++] = {sample, usable, modelled};
+    if (pending_count_ == span) {
+      const int mid = side_neighbours_;
       const auto known = [&](int k) { return pending_[k].usable && std::isfinite(pending_[k].sample.y); };
-      if (known(0) && known(1) && known(2)) {
-        spool_noise_.add(pending_[0].sample.y, pending_[1].sample.y, pending_[2].sample.y);
+      if (known(mid - 1) && known(mid) && known(mid + 1)) {
+        spool_noise_.add(pending_[mid - 1].sample.y, pending_[mid].sample.y, pending_[mid + 1].sample.y);
       }
+      // Within 3 noise stds of the port's kink the sample's own noisy sign would bias the flow column (its
+      // noise decides the side it is weighed on). Where the grid resolves the valve, the side is judged by the
+      // valve model's spool, moved onto the measurement by the neighbours' mean measured-minus-modelled
+      // spool, whose noise is independent of this sample's; on a coarser grid the model cannot follow the
+      // spool, and the side is weighted 1/2 by the sample's own sign and 1/4 by each neighbour's, which
+      // cancels the bias where the spool is spread evenly (doc/equations.md, "Spool noise at the port's kink").
       const auto drains = [](double y) { return y >= 0.0 ? 1.0 : 0.0; };
-      const double own = drains(pending_[1].sample.y);
+      const double own = drains(pending_[mid].sample.y);
       double drain_weight = own;
-      if (std::abs(pending_[1].sample.y) < 3.0 * spool_noise_.sigma()) {
-        drain_weight = 0.5 * own;
-        for (int k : {0, 2}) drain_weight += 0.25 * (known(k) ? drains(pending_[k].sample.y) : own);
+      if (std::abs(pending_[mid].sample.y) < 3.0 * spool_noise_.sigma()) {
+        if (side_by_model_) {
+          double offset = 0.0;
+          int neighbours = 0;
+          for (int k = 0; k < span; ++k) {
+            if (k == mid || !known(k)) continue;
+            offset += pending_[k].sample.y - pending_[k].modelled_spool;
+            ++neighbours;
+          }
+          if (neighbours > 0) drain_weight = drains(pending_[mid].modelled_spool + offset / neighbours);
+        } else {
+          drain_weight = 0.5 * own;
+          for (int k : {mid - 1, mid + 1}) drain_weight += 0.25 * (known(k) ? drains(pending_[k].sample.y) : own);
+        }
       }
-      ready = pushIntegral(pending_[1].sample, pending_[1].usable, drain_weight, point, row);
+      ready = pushIntegral(pending_[mid].sample, pending_[mid].usable, drain_weight, point, row);
     }
   }
   if (!ready || !raw_ready) return false;

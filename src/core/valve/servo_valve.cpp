@@ -69,4 +69,32 @@ double ServoValve::advance(double dt, double command_voltage) {
   return y_;
 }
 
+SampledServoValve::SampledServoValve(const ServoValveParameters& p, double sample_period) {
+  const double w = 2.0 * M_PI * p.natural_frequency;
+  // s = c (z - 1) / (z + 1), c prewarped so that the natural frequency maps exactly.
+  const double c = w / std::tan(0.5 * w * sample_period);
+  const double a0 = c * c + 2.0 * p.damping * w * c + w * w;
+  b_ = p.gain * w * w / a0;
+  a1_ = (2.0 * w * w - 2.0 * c * c) / a0;
+  a2_ = (c * c - 2.0 * p.damping * w * c + w * w) / a0;
+  gain_ = p.gain;
+  delay_ = std::clamp(static_cast<int>(std::lround(p.dead_time / sample_period)), 0, kMaxDelay);
+}
+
+void SampledServoValve::reset(double position) {
+  const double u = gain_ != 0.0 ? position / gain_ : 0.0;
+  std::fill(std::begin(commands_), std::end(commands_), u);
+  y1_ = y2_ = position;
+}
+
+double SampledServoValve::step(double command_voltage) {
+  for (int i = kMaxDelay + 2; i > 0; --i) commands_[i] = commands_[i - 1];
+  commands_[0] = command_voltage;
+  const double* u = commands_ + delay_;
+  const double y = b_ * (u[0] + 2.0 * u[1] + u[2]) - a1_ * y1_ - a2_ * y2_;
+  y2_ = y1_;
+  y1_ = y;
+  return y;
+}
+
 }  // namespace die_cushion_ident

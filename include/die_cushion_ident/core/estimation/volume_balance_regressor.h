@@ -5,6 +5,7 @@
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/signal/signal_filters.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
 
 namespace die_cushion_ident {
 
@@ -24,6 +25,10 @@ struct RegressionRow {
 /// (b-1)/2 + (d-1)/2 samples in the past, with the same units, so they can be compared one to one.
 class VolumeBalanceRegressor {
  public:
+  /// Samples each side of a sample that correct the valve model near the port's kink: 16 (32 ms at 2 ms)
+  /// leave a noise of a sixth of the spool's in the correction (8: -1.7 %, 16: -1.1 % dead-volume bias at the
+  /// widest windows, doc/equations.md).
+  static constexpr int kMaxSideNeighbours = 16;
   VolumeBalanceRegressor(const HydraulicModel& model, const IdentificationConfig& config);
 
   /// Adds one sample (with the spool position filled in). `usable` is false for samples the model must not
@@ -58,15 +63,21 @@ class VolumeBalanceRegressor {
   };
   SlidingWindowSum increment_window_;
   MovingAverageFilter window_average_;
-  // The last three samples: the middle one goes on. Within 3 noise stds of the port's kink its port side is
-  // weighted 1/2 by its own spool's sign and 1/4 by each neighbour's, which cancels the bias that spool
-  // noise causes there (doc/equations.md, "Spool noise at the port's kink").
+  // The last 2 kSideNeighbours + 1 samples: the middle one goes on. Within 3 noise stds of the port's kink
+  // its port side is judged by the valve model's spool, corrected by the neighbours' mean measured-minus-
+  // modelled spool, so that its own spool noise does not choose the side (doc/equations.md, "Spool noise at
+  // the port's kink").
   struct Pending {
     GridSample sample;
     bool usable = false;
+    double modelled_spool = 0.0;  // the valve model's spool for the sample's command
   };
-  Pending pending_[3];
+  bool side_by_model_;     // the grid resolves the valve: its model judges the port side near the kink
+  int side_neighbours_;    // spool samples each side that judge it
+  Pending pending_[2 * kMaxSideNeighbours + 1];
   SpoolNoiseEstimator spool_noise_;
+  SampledServoValve spool_model_;
+  bool spool_model_started_ = false;
   int pending_count_ = 0;
   Node nodes_[4];
   int node_count_ = 0;

@@ -46,4 +46,24 @@ class ServoValve {
   std::deque<std::pair<double, double>> commands_;  // (time applied, voltage)
 };
 
+/// The same spool dynamics for a constant sample period, as a difference equation: the bilinear transform
+/// prewarped at the natural frequency, the dead time rounded to whole samples, no speed limit or stop. A few
+/// nanoseconds a sample where ServoValve's integration takes a hundred: for following the command sample by
+/// sample (the regressor's port side near the kink), not for simulating sweeps.
+class SampledServoValve {
+ public:
+  SampledServoValve(const ServoValveParameters& parameters, double sample_period);
+  /// Starts at rest at `position` (the commands before as if they had held it there).
+  void reset(double position);
+  /// The spool one sample after `command_voltage` was applied.
+  double step(double command_voltage);
+
+ private:
+  static constexpr int kMaxDelay = 64;
+  double b_ = 0.0, a1_ = 0.0, a2_ = 0.0, gain_ = 0.0;  // y_k = b (u_k + 2 u_k-1 + u_k-2) - a1 y_k-1 - a2 y_k-2
+  int delay_ = 0;                                        // dead time [samples]
+  double commands_[kMaxDelay + 3] = {};                  // delayed commands, newest first
+  double y1_ = 0.0, y2_ = 0.0;
+};
+
 }  // namespace die_cushion_ident
