@@ -53,6 +53,7 @@ void VolumeBalanceRegressor::clear() {
   increment_window_.clear();
   window_average_.clear();
   pending_count_ = 0;
+  pending_head_ = 0;
   spool_model_started_ = false;
   node_count_ = 0;
   signal_average_.clear();
@@ -85,10 +86,13 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
     ready = pushDerivative(sample, usable, point, row);
   } else {
     const int span = 2 * side_neighbours_ + 1;
+    // A ring of the last `span` samples (pending(0) the oldest): copying them along each sample cost more
+    // than the rest of the regressor.
     if (pending_count_ == span) {
-      for (int k = 0; k + 1 < span; ++k) pending_[k] = pending_[k + 1];
+      pending_head_ = (pending_head_ + 1) % span;
       pending_count_ = span - 1;
     }
+    const auto pending = [&](int k) -> Pending& { return pending_[(pending_head_ + k) % span]; };
     // The valve model follows the command: near the kink its spool tells the port side with an error that is
     // independent of the measured spool's noise.
     double modelled = 0.0;
@@ -101,12 +105,12 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
         modelled = spool_model_.step(sample.u);
       }
     }
-    pending_[pending_count_++] = {sample, usable, modelled};
+    pending(pending_count_++) = {sample, usable, modelled};
     if (pending_count_ == span) {
       const int mid = side_neighbours_;
-      const auto known = [&](int k) { return pending_[k].usable && std::isfinite(pending_[k].sample.y); };
+      const auto known = [&](int k) { return pending(k).usable && std::isfinite(pending(k).sample.y); };
       if (known(mid - 1) && known(mid) && known(mid + 1)) {
-        spool_noise_.add(pending_[mid - 1].sample.y, pending_[mid].sample.y, pending_[mid + 1].sample.y);
+        spool_noise_.add(pending(mid - 1).sample.y, pending(mid).sample.y, pending(mid + 1).sample.y);
       }
       // Within 3 noise stds of the port's kink the sample's own noisy sign would bias the flow column (its
       // noise decides the side it is weighed on). Where the grid resolves the valve, the side is judged by the
@@ -115,24 +119,24 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
       // spool, and the side is weighted 1/2 by the sample's own sign and 1/4 by each neighbour's, which
       // cancels the bias where the spool is spread evenly (doc/equations.md, "Spool noise at the port's kink").
       const auto drains = [](double y) { return y >= 0.0 ? 1.0 : 0.0; };
-      const double own = drains(pending_[mid].sample.y);
+      const double own = drains(pending(mid).sample.y);
       double drain_weight = own;
-      if (std::abs(pending_[mid].sample.y) < 3.0 * spool_noise_.sigma()) {
+      if (std::abs(pending(mid).sample.y) < 3.0 * spool_noise_.sigma()) {
         if (side_by_model_) {
           double offset = 0.0;
           int neighbours = 0;
           for (int k = 0; k < span; ++k) {
             if (k == mid || !known(k)) continue;
-            offset += pending_[k].sample.y - pending_[k].modelled_spool;
+            offset += pending(k).sample.y - pending(k).modelled_spool;
             ++neighbours;
           }
-          if (neighbours > 0) drain_weight = drains(pending_[mid].modelled_spool + offset / neighbours);
+          if (neighbours > 0) drain_weight = drains(pending(mid).modelled_spool + offset / neighbours);
         } else {
           drain_weight = 0.5 * own;
-          for (int k : {mid - 1, mid + 1}) drain_weight += 0.25 * (known(k) ? drains(pending_[k].sample.y) : own);
+          for (int k : {mid - 1, mid + 1}) drain_weight += 0.25 * (known(k) ? drains(pending(k).sample.y) : own);
         }
       }
-      ready = pushIntegral(pending_[mid].sample, pending_[mid].usable, drain_weight, point, row);
+      ready = pushIntegral(pending(mid).sample, pending(mid).usable, drain_weight, point, row);
     }
   }
   if (!ready || !raw_ready) return false;

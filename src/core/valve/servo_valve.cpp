@@ -88,10 +88,11 @@ void SampledServoValve::reset(double position) {
 }
 
 double SampledServoValve::step(double command_voltage) {
-  for (int i = kMaxDelay + 2; i > 0; --i) commands_[i] = commands_[i - 1];
-  commands_[0] = command_voltage;
-  const double* u = commands_ + delay_;
-  const double y = b_ * (u[0] + 2.0 * u[1] + u[2]) - a1_ * y1_ - a2_ * y2_;
+  // A ring of the recent commands, newest at newest_: the one `delay_` samples back and the two before it.
+  newest_ = (newest_ + kRing - 1) % kRing;
+  commands_[newest_] = command_voltage;
+  const auto back = [&](int k) { return commands_[(newest_ + delay_ + k) % kRing]; };
+  const double y = b_ * (back(0) + 2.0 * back(1) + back(2)) - a1_ * y1_ - a2_ * y2_;
   y2_ = y1_;
   y1_ = y;
   return y;

@@ -79,6 +79,7 @@ class VolumeBalanceRegressor {
   SampledServoValve spool_model_;
   bool spool_model_started_ = false;
   int pending_count_ = 0;
+  int pending_head_ = 0;
   Node nodes_[4];
   int node_count_ = 0;
 

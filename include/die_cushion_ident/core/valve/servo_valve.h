@@ -60,9 +60,11 @@ class SampledServoValve {
 
  private:
   static constexpr int kMaxDelay = 64;
+  static constexpr int kRing = kMaxDelay + 3;
   double b_ = 0.0, a1_ = 0.0, a2_ = 0.0, gain_ = 0.0;  // y_k = b (u_k + 2 u_k-1 + u_k-2) - a1 y_k-1 - a2 y_k-2
   int delay_ = 0;                                        // dead time [samples]
-  double commands_[kMaxDelay + 3] = {};                  // delayed commands, newest first
+  double commands_[kRing] = {};                          // recent commands, a ring
+  int newest_ = 0;
   double y1_ = 0.0, y2_ = 0.0;
 };
 
