@@ -26,8 +26,10 @@ std::uint32_t readU32(const std::uint8_t* p) {
          static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24;
 }
 
-// "len name=value" fields of a record header (or of a connection's data); false when they do not fit.
-bool parseFields(const std::uint8_t* data, std::size_t size, std::map<std::string, std::string>* fields) {
+// Calls field(name, value) for each "len name=value" field of a record header (or of a connection's data),
+// the views pointing into `data`; false when the fields do not fit or field() returns false.
+template <typename Field>
+bool forEachField(const std::uint8_t* data, std::size_t size, const Field& field) {
   std::size_t at = 0;
   while (at < size) {
     if (size - at < 4) return false;
@@ -38,10 +40,18 @@ bool parseFields(const std::uint8_t* data, std::size_t size, std::map<std::strin
     const void* equals = std::memchr(text, '=', length);
     if (!equals) return false;
     const std::size_t name_length = static_cast<const char*>(equals) - text;
-    (*fields)[std::string(text, name_length)] = std::string(text + name_length + 1, length - name_length - 1);
+    if (!field(std::string_view(text, name_length), std::string_view(text + name_length + 1, length - name_length - 1)))
+      return false;
     at += length;
   }
   return true;
+}
+
+bool parseFields(const std::uint8_t* data, std::size_t size, std::map<std::string, std::string>* fields) {
+  return forEachField(data, size, [&](std::string_view name, std::string_view value) {
+    (*fields)[std::string(name)] = std::string(value);
+    return true;
+  });
 }
 
 // The same fields without copying them into a map: a message record's header (op, conn, time) is parsed
@@ -61,22 +71,13 @@ struct FieldViews {
 // False when the fields do not fit, or there are more than a message record has any need for.
 bool parseFieldViews(const std::uint8_t* data, std::size_t size, FieldViews* fields) {
   fields->count = 0;
-  std::size_t at = 0;
-  while (at < size) {
-    if (size - at < 4 || fields->count == FieldViews::kMax) return false;
-    const std::uint32_t length = readU32(data + at);
-    at += 4;
-    if (length > size - at) return false;
-    const char* text = reinterpret_cast<const char*>(data + at);
-    const void* equals = std::memchr(text, '=', length);
-    if (!equals) return false;
-    const std::size_t name_length = static_cast<const char*>(equals) - text;
-    fields->names[fields->count] = std::string_view(text, name_length);
-    fields->values[fields->count] = std::string_view(text + name_length + 1, length - name_length - 1);
+  return forEachField(data, size, [&](std::string_view name, std::string_view value) {
+    if (fields->count == FieldViews::kMax) return false;
+    fields->names[fields->count] = name;
+    fields->values[fields->count] = value;
     ++fields->count;
-    at += length;
-  }
-  return true;
+    return true;
+  });
 }
 
 // Little-endian fields of a serialised message, every read checked against its size.
