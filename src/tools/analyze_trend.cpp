@@ -16,6 +16,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -23,6 +24,7 @@
 #include <thread>
 #include <vector>
 
+#include "argument_parser.h"
 #include "command_line.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
@@ -62,40 +64,25 @@ struct Options {
 
 Options parseArguments(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) fail(2, a + " needs a value\n" + kUsage);
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (a == "--out") {
-      o.out = value();
-    } else if (a == "--config") {
-      o.config = value();
-    } else if (a == "--effects") {
-      o.effects = value();
-      o.effects_given = true;
-    } else if (a == "--jobs") {
-      const std::string text = value();
-      const auto jobs = wholeNumberIn(text, 1, 256);
-      if (!jobs) fail(2, "--jobs must be a whole number of bags side by side in [1, 256], got '" + text + "'\n" + kUsage);
-      o.jobs = static_cast<int>(*jobs);
-    } else if (a == "--false-alarm-rate") {
-      const std::string text = value();
-      const auto rate = numberIn(text, 1e-9, 0.5);
-      if (!rate) fail(2, "--false-alarm-rate must be a probability in [1e-9, 0.5], got '" + text + "'\n" + kUsage);
-      o.false_alarm_rate = *rate;
-    } else if (a == "--quiet") {
-      o.quiet = true;
-    } else if (!a.empty() && a[0] == '-') {
-      fail(2, "unknown option " + a + "\n" + kUsage);
-    } else {
-      o.inputs.push_back(a);
-    }
+  ArgumentParser arguments;
+  arguments.option("--out", [&](const std::string& v) { o.out = v; })
+      .option("--config", [&](const std::string& v) { o.config = v; })
+      .option("--effects",
+              [&](const std::string& v) {
+                o.effects = v;
+                o.effects_given = true;
+              })
+      .wholeNumber("--jobs", 1, 256, &o.jobs)
+      .number("--false-alarm-rate", 1e-9, 0.5, &o.false_alarm_rate)
+      .flag("--quiet", [&] { o.quiet = true; })
+      .positional("bags or directories", std::numeric_limits<int>::max(),
+                  [&](const std::string& v) { o.inputs.push_back(v); });
+  const std::string problem = arguments.parse(argc, argv);
+  if (arguments.helpRequested()) {
+    std::cout << kUsage;
+    std::exit(0);
   }
+  if (!problem.empty()) fail(2, problem + "\n" + kUsage);
   if (o.inputs.empty()) fail(2, std::string("no bag or directory given\n") + kUsage);
   if (o.out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
   if (o.jobs == 0) o.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

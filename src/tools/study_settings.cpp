@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "analysis_config.h"
+#include "argument_parser.h"
 #include "command_line.h"
 #include "die_cushion_ident/core/analysis/settings_study.h"
 
@@ -86,36 +87,19 @@ int run(int argc, char** argv) {
   std::string config_path, summary_path, out;
   SettingsStudyOptions options;
   options.jobs = std::max(1u, std::thread::hardware_concurrency());
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) fail(2, a + " needs a value\n" + kUsage);
-      return argv[++i];
-    };
-    const auto count = [&](int lowest) {
-      const auto n = wholeNumberIn(value(), lowest, 1000);
-      if (!n) fail(2, a + " must be a whole number >= " + std::to_string(lowest));
-      return static_cast<int>(*n);
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      return 0;
-    } else if (a == "--config") {
-      config_path = value();
-    } else if (a == "--from-summary") {
-      summary_path = value();
-    } else if (a == "--out") {
-      out = value();
-    } else if (a == "--seeds") {
-      options.seeds = count(2);
-    } else if (a == "--cycles") {
-      options.cycles = count(1);
-    } else if (a == "--jobs") {
-      options.jobs = count(1);
-    } else {
-      fail(2, "unknown option " + a + "\n" + kUsage);
-    }
+  ArgumentParser arguments;
+  arguments.option("--config", [&](const std::string& v) { config_path = v; })
+      .option("--from-summary", [&](const std::string& v) { summary_path = v; })
+      .option("--out", [&](const std::string& v) { out = v; })
+      .wholeNumber("--seeds", 2, 1000, &options.seeds)
+      .wholeNumber("--cycles", 1, 1000, &options.cycles)
+      .wholeNumber("--jobs", 1, 1000, &options.jobs);
+  const std::string problem = arguments.parse(argc, argv);
+  if (arguments.helpRequested()) {
+    std::cout << kUsage;
+    return 0;
   }
+  if (!problem.empty()) fail(2, problem + "\n" + kUsage);
   if (out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
 
   IdentificationConfig base;
