@@ -74,12 +74,7 @@ Options parseArguments(int argc, char** argv) {
       .flag("--propose", [&] { o.propose = true; })
       .wholeNumber("--jobs", 1, 256, &o.jobs)
       .positional("bag", 1, [&](const std::string& v) { o.bag = v; });
-  const std::string problem = arguments.parse(argc, argv);
-  if (arguments.helpRequested()) {
-    std::cout << kUsage;
-    std::exit(0);
-  }
-  if (!problem.empty()) fail(2, problem + "\n" + kUsage);
+  arguments.parseOrExit(argc, argv, "analyze_bag", kUsage);
   if (o.bag.empty()) fail(2, std::string("no bag given\n") + kUsage);
   if (o.out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
   return o;

@@ -77,12 +77,7 @@ Options parseArguments(int argc, char** argv) {
       .flag("--quiet", [&] { o.quiet = true; })
       .positional("bags or directories", std::numeric_limits<int>::max(),
                   [&](const std::string& v) { o.inputs.push_back(v); });
-  const std::string problem = arguments.parse(argc, argv);
-  if (arguments.helpRequested()) {
-    std::cout << kUsage;
-    std::exit(0);
-  }
-  if (!problem.empty()) fail(2, problem + "\n" + kUsage);
+  arguments.parseOrExit(argc, argv, "analyze_trend", kUsage);
   if (o.inputs.empty()) fail(2, std::string("no bag or directory given\n") + kUsage);
   if (o.out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
   if (o.jobs == 0) o.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

@@ -1,5 +1,7 @@
 #include "argument_parser.h"
 
+#include <cstdlib>
+#include <iostream>
 #include <stdexcept>
 
 #include "command_line.h"
@@ -79,6 +81,18 @@ std::string ArgumentParser::parse(int argc, const char* const* argv) {
     return e.what();
   }
   return "";
+}
+
+void ArgumentParser::parseOrExit(int argc, const char* const* argv, const std::string& tool, const std::string& usage) {
+  const std::string problem = parse(argc, argv);
+  if (help_) {
+    std::cout << usage;
+    std::exit(0);
+  }
+  if (!problem.empty()) {
+    std::cerr << tool << ": " << problem << "\n" << usage;
+    std::exit(2);
+  }
 }
 
 }  // namespace die_cushion_ident

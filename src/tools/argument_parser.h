@@ -31,6 +31,9 @@ class ArgumentParser {
   /// --help and -h are understood by every tool: helpRequested() is then true.
   std::string parse(int argc, const char* const* argv);
   bool helpRequested() const { return help_; }
+  /// parse(), then what every tool does with its result: on --help the usage to stdout and exit 0; on a
+  /// problem "TOOL: problem" and the usage to stderr and exit 2 (the contract's code for a bad command line).
+  void parseOrExit(int argc, const char* const* argv, const std::string& tool, const std::string& usage);
 
  private:
   struct Option {

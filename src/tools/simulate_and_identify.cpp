@@ -21,14 +21,13 @@ using namespace die_cushion_ident;
 
 namespace {
 
-void usage() {
-  std::cerr << "usage: simulate_and_identify [--cycles N] [--plant-effects a,b] [--effects a,b]\n"
-               "                             [--form integral|derivative] [--seed S] [--forgetting L]\n"
-               "                             [--noise-free] [--set KEY=VALUE]...\n"
-               "                             [--bulk-modulus-step FACTOR --step-cycle K] [--feed-forward]\n"
-               "  --feed-forward: afterwards, the drawing pressure error of the press's PI controller alone, with\n"
-               "  its nominal velocity feed-forward, and with the identified model's feed-forward (paper, Fig. 19)\n";
-}
+const char* const kUsage =
+    "usage: simulate_and_identify [--cycles N] [--plant-effects a,b] [--effects a,b]\n"
+    "                             [--form integral|derivative] [--seed S] [--forgetting L]\n"
+    "                             [--noise-free] [--set KEY=VALUE]...\n"
+    "                             [--bulk-modulus-step FACTOR --step-cycle K] [--feed-forward]\n"
+    "  --feed-forward: afterwards, the drawing pressure error of the press's PI controller alone, with\n"
+    "  its nominal velocity feed-forward, and with the identified model's feed-forward (paper, Fig. 19)\n";
 
 void printTable(const DieCushionSimulator& plant, const HydraulicEstimate& e) {
   std::printf("  %-22s %14s %14s %12s %9s\n", "parameter", "true", "identified", "std", "error");
@@ -86,16 +85,7 @@ int run(int argc, char** argv) {
               })
       .number("--bulk-modulus-step", 1e-3, 1e3, &step_factor)
       .wholeNumber("--step-cycle", 0, 100000, &step_cycle);
-  const std::string problem = arguments.parse(argc, argv);
-  if (arguments.helpRequested()) {
-    usage();
-    return 0;
-  }
-  if (!problem.empty()) {
-    std::cerr << "simulate_and_identify: " << problem << "\n";
-    usage();
-    return 2;
-  }
+  arguments.parseOrExit(argc, argv, "simulate_and_identify", kUsage);
   try {
     config.geometry = plant_config.geometry;
     DieCushionSimulator plant(plant_config);

@@ -151,15 +151,7 @@ int run(int argc, char** argv) {
       .number("--start-offset", 0.0, 1e6, &start_offset)
       .number("--epoch", 0.0, 4e9, &epoch)
       .positional("output bag", 1, [&](const std::string& v) { out = v; });
-  const std::string problem = arguments.parse(argc, argv);
-  if (arguments.helpRequested()) {
-    std::cout << kUsage;
-    return 0;
-  }
-  if (!problem.empty()) {
-    std::cerr << "simulate_bag: " << problem << "\n" << kUsage;
-    return 2;
-  }
+  arguments.parseOrExit(argc, argv, "simulate_bag", kUsage);
   if (out.empty()) {
     std::cerr << "simulate_bag: no output bag given\n" << kUsage;
     return 2;

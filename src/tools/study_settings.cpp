@@ -94,12 +94,7 @@ int run(int argc, char** argv) {
       .wholeNumber("--seeds", 2, 1000, &options.seeds)
       .wholeNumber("--cycles", 1, 1000, &options.cycles)
       .wholeNumber("--jobs", 1, 1000, &options.jobs);
-  const std::string problem = arguments.parse(argc, argv);
-  if (arguments.helpRequested()) {
-    std::cout << kUsage;
-    return 0;
-  }
-  if (!problem.empty()) fail(2, problem + "\n" + kUsage);
+  arguments.parseOrExit(argc, argv, "study_settings", kUsage);
   if (out.empty()) fail(2, std::string("--out DIR is required\n") + kUsage);
 
   IdentificationConfig base;
