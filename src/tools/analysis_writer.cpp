@@ -4,9 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <charconv>
-#include <charconv>
 #include <cmath>
-#include <future>
 #include <future>
 #include <fstream>
 #include <cstdio>
@@ -455,7 +453,9 @@ class AnalysisBag {
 
 AnalysisWriter::AnalysisWriter(const std::string& directory, const IdentificationConfig& config,
                                const OfflineResult& result, const std::vector<GridSample>& grid)
-    : directory_(directory), config_(config) {
+    : directory_(directory),
+      config_(config),
+      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)) {
   // A reused output folder must not keep a previous run's files (a stale frequency_response.csv would
   // describe another recording).
   for (const char* name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
@@ -463,17 +463,12 @@ AnalysisWriter::AnalysisWriter(const std::string& directory, const Identificatio
     std::remove((directory + "/" + name).c_str());
   }
   bag_ = std::make_unique<AnalysisBag>(directory + "/analysis.bag");
-  bag_series_ = std::async(std::launch::async, [this, &result, &grid] {
-    const HydraulicModel model = HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
-    bag_->writeSeries(result, grid, model);
-  });
+  bag_series_ = std::async(std::launch::async, [this, &result, &grid] { bag_->writeSeries(result, grid, model_); });
   comparison_csv_ = std::async(std::launch::async, [this, &result, &grid] {
     writeComparisonCsv(directory_ + "/model_comparison.csv", result, grid);
   });
-  estimates_csv_ = std::async(std::launch::async, [this, &result] {
-    const HydraulicModel model = HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
-    writeEstimatesCsv(directory_ + "/estimates.csv", result, model);
-  });
+  estimates_csv_ = std::async(std::launch::async,
+                              [this, &result] { writeEstimatesCsv(directory_ + "/estimates.csv", result, model_); });
 }
 
 AnalysisWriter::~AnalysisWriter() {

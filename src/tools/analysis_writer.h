@@ -42,6 +42,7 @@ class AnalysisWriter {
  private:
   std::string directory_;
   IdentificationConfig config_;
+  HydraulicModel model_;  // read only, by the threads that write the series
   std::unique_ptr<class AnalysisBag> bag_;
   std::future<void> bag_series_, comparison_csv_, estimates_csv_;
 };
