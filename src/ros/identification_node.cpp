@@ -42,18 +42,12 @@ void fill(diagnostic_updater::DiagnosticStatusWrapper& status, const HealthRepor
   for (const auto& [key, value] : report.values) status.add(key, value);
 }
 
-std::string join(const std::vector<std::string>& items, const char* separator) {
-  std::string out;
-  for (const auto& item : items) out += (out.empty() ? "" : separator) + item;
-  return out;
-}
-
 }  // namespace
 
 IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
     : nh_(nh), pnh_(pnh), sweep_(SweepLimits()), updater_(nh, pnh, name) {
   const auto problems = loadParameters(pnh_, &config_, &limits_, &settings_);
-  if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + join(problems, "\n  "));
+  if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + joined(problems, "\n  "));
   sweep_ = ValveSweep(limits_);
   sweep_.setCommandHold(config_.valve_command_hold);
   step_test_ = ValveStepTest(limits_);
@@ -101,7 +95,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
       nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) { updater_.update(); });
 
   ROS_INFO_STREAM("die_cushion_ident: identifying "
-                  << join(pipeline_->identifier().model().effectNames(), ", ")
+                  << joined(pipeline_->identifier().model().effectNames(), ", ")
                   << (config_.effects.empty() && config_.custom_effects.empty() ? "base model" : "") << " on "
                   << nh_.resolveName("pressure") << ", " << nh_.resolveName("position") << ", "
                   << nh_.resolveName("valve"));
@@ -483,7 +477,7 @@ bool IdentificationNode::setEffects(SetEffects::Request& req, SetEffects::Respon
   const auto problems = changed.validate();
   if (!problems.empty()) {
     res.success = false;
-    res.message = "effects refused: " + join(problems, "; ");
+    res.message = "effects refused: " + joined(problems, "; ");
     return true;
   }
   config_ = changed;
@@ -491,7 +485,7 @@ bool IdentificationNode::setEffects(SetEffects::Request& req, SetEffects::Respon
   for (const auto& info : pipeline_->identifier().model().parameterInfos())
     res.parameters.push_back(info.name);
   res.success = true;
-  res.message = "model now: " + join(res.parameters, ", ") + "; the estimator restarted";
+  res.message = "model now: " + joined(res.parameters, ", ") + "; the estimator restarted";
   ROS_INFO("die_cushion_ident: %s", res.message.c_str());
   return true;
 }

@@ -8,16 +8,6 @@
 
 namespace die_cushion_ident {
 
-namespace {
-
-std::string join(const std::vector<std::string>& items, const char* separator) {
-  std::string out;
-  for (const auto& item : items) out += (out.empty() ? "" : separator) + item;
-  return out;
-}
-
-}  // namespace
-
 double allInputsSilentFor(const UniformResampler& resampler, double now) {
   double youngest = std::numeric_limits<double>::infinity();
   for (int s = 0; s < kInputStreamCount; ++s) {
@@ -69,7 +59,7 @@ HealthReport inputHealth(const InputState& in) {
 
 HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimate& e) {
   HealthReport r;
-  r.add("effects", e.effects.empty() ? std::string("none (base model)") : join(e.effects, ", "));
+  r.add("effects", e.effects.empty() ? std::string("none (base model)") : joined(e.effects, ", "));
   r.add("updates", e.updates);
   r.add("steps without excitation", e.skipped_unexcited);
   r.add("steps outside the model's validity", e.skipped_invalid);
