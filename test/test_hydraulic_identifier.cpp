@@ -224,3 +224,32 @@ TEST(HydraulicIdentifier, SpoolPredictedFromTheVoltageWhenNotMeasured) {
   const auto e = identify(plant, config, 4);
   expectBaseWithinBounds(e, plant, "spool predicted from the voltage");
 }
+
+// A valve model handed over after construction (a sweep identified the valve) judges the port side near the
+// kink exactly as if the regressor had been built with it; the configured one gives other rows.
+TEST(VolumeBalanceRegressor, AValveModelSetLaterActsAsIfBuiltWithIt) {
+  const Recording recording = record(randomPlant(11), 2);
+  IdentificationConfig swept = configFor(recording.plant);
+  swept.valve = recording.plant.valve;
+  swept.valve.natural_frequency = 95.0;
+  IdentificationConfig configured = swept;
+  configured.valve.natural_frequency = 60.0;
+  configured.valve.dead_time = 0.004;
+  const HydraulicModel model = HydraulicModel::fromNames(swept.geometry, {}, {});
+  VolumeBalanceRegressor built(model, swept), handed(model, configured), kept(model, configured);
+  handed.setValveModel(swept.valve);
+  const ParameterVector point = model.nominalParameters();
+  int rows = 0, differ = 0;
+  for (const GridSample& g : recording.grid) {
+    RegressionRow a, b, c;
+    const bool ready = built.push(g, true, point, &a);
+    ASSERT_EQ(handed.push(g, true, point, &b), ready);
+    kept.push(g, true, point, &c);
+    if (!ready) continue;
+    ++rows;
+    for (int j = 0; j < model.parameterCount(); ++j) ASSERT_EQ(a.phi[j], b.phi[j]) << "row " << rows;
+    differ += a.phi[HydraulicModel::kValveFlowGain] != c.phi[HydraulicModel::kValveFlowGain];
+  }
+  EXPECT_GT(rows, 1000);
+  EXPECT_GT(differ, 0) << "the valve model does decide some rows near the kink";
+}

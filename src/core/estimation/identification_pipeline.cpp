@@ -75,6 +75,7 @@ void IdentificationPipeline::predictSpool(StreamSample* valve) {
 }
 
 void IdentificationPipeline::setValveModel(const ServoValveParameters& valve) {
+  identifier_.setValveModel(valve);
   spool_predictor_ = ServoValve(valve);
   predicting_ = false;  // restart the prediction from the last measured spool
 }

@@ -8,14 +8,14 @@ namespace die_cushion_ident {
 
 namespace {
 enum RawChannel { kT, kP, kX, kU, kY, kRawCount };
-}
-
-namespace {
 
 // The valve model can follow the spool sample by sample when the grid has at least five samples per period
 // of the valve's natural frequency (80 Hz on the 2 ms grid: 6; on 5 ms: 2.5, too few).
+bool resolvesValve(const ServoValveParameters& valve, double sample_period) {
+  return valve.natural_frequency * sample_period <= 0.2;
+}
 bool resolvesValve(const IdentificationConfig& config) {
-  return config.valve.natural_frequency * config.resampler.sample_period <= 0.2;
+  return resolvesValve(config.valve, config.resampler.sample_period);
 }
 
 // Neighbours each side that judge the port side near the kink: 16 with the valve model (a noise of a sixth of
@@ -33,7 +33,7 @@ VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model,
       dt_(config.resampler.sample_period),
       n_(model.parameterCount()),
       // The integral form closes an increment one sample late (its quadrature looks one sample ahead), and
-      // takes each sample kSideNeighbours samples late (the port side looks at the spools around it).
+      // takes each sample sideNeighbours() samples late (the port side looks at the spools around it).
       delay_((config.moving_average_width - 1) / 2 + (config.derivative_width - 1) / 2 +
              (config.regression_form == RegressionForm::kIntegral ? 1 + sideNeighbours(config) : 0)),
       raw_(delay_, kRawCount),
@@ -74,6 +74,13 @@ HydraulicSignals VolumeBalanceRegressor::signalsAt(double t, double p, double dp
   s.y = y;
   s.V = model_.chamberVolume(x, point(HydraulicModel::kDeadVolume));
   return s;
+}
+
+void VolumeBalanceRegressor::setValveModel(const ServoValveParameters& valve) {
+  // The neighbours (and so the regressor's delay) stay as built; the 1/2-1/4 weighting needs only two.
+  side_by_model_ = resolvesValve(valve, dt_) && side_neighbours_ == kMaxSideNeighbours;
+  spool_model_ = SampledServoValve(valve, dt_);
+  spool_model_started_ = false;
 }
 
 bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const ParameterVector& point,

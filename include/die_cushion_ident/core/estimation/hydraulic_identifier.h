@@ -60,6 +60,8 @@ class HydraulicIdentifier {
   bool push(const GridSample& sample);
   /// Restarts estimator and filters from the initial values.
   void reset();
+  /// The valve model the regressor uses near the port's kink (after a sweep identified the valve).
+  void setValveModel(const ServoValveParameters& valve) { regressor_->setValveModel(valve); }
 
   HydraulicEstimate estimate() const;
   ParameterVector physicalParameters() const;

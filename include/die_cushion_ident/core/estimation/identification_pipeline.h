@@ -33,7 +33,8 @@ class IdentificationPipeline {
   /// Called for every uniform sample, after the identifier has taken it (model comparison, phases).
   using GridCallback = std::function<void(const GridSample&, const HydraulicIdentifier&)>;
   void setGridCallback(GridCallback callback) { on_grid_ = std::move(callback); }
-  /// Replaces the valve model that predicts an unmeasured spool (e.g. after a sweep identified it).
+  /// Replaces the valve model that predicts an unmeasured spool and judges the port side near its kink (e.g.
+  /// after a sweep identified it).
   void setValveModel(const ServoValveParameters& valve);
   /// [s] subtracted from each stream's stamps (pressure, position, valve) from now on.
   void setTopicDelays(const std::array<double, kInputStreamCount>& delays) { delays_ = delays; }

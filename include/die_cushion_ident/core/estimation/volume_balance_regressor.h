@@ -25,9 +25,9 @@ struct RegressionRow {
 /// (b-1)/2 + (d-1)/2 samples in the past, with the same units, so they can be compared one to one.
 class VolumeBalanceRegressor {
  public:
-  /// Samples each side of a sample that correct the valve model near the port's kink: 16 (32 ms at 2 ms)
-  /// leave a noise of a sixth of the spool's in the correction (8: -1.7 %, 16: -1.1 % dead-volume bias at the
-  /// widest windows, doc/equations.md).
+  /// Samples each side of a sample that correct the valve model near the port's kink: 16 (32 ms at 2 ms).
+  /// At the widest windows 4, 8 and 16 left -2.0, -1.7 and -1.1 % dead-volume bias, 24 and 32 no less
+  /// (doc/equations.md).
   static constexpr int kMaxSideNeighbours = 16;
   VolumeBalanceRegressor(const HydraulicModel& model, const IdentificationConfig& config);
 
@@ -38,6 +38,9 @@ class VolumeBalanceRegressor {
   bool push(const GridSample& sample, bool usable, const ParameterVector& linearisation_point,
             RegressionRow* row);
   void clear();
+  /// The valve model that judges the port side near the kink (a sweep identified the valve): used from the
+  /// next sample on, started afresh at the measured spool.
+  void setValveModel(const ServoValveParameters& valve);
   int delaySamples() const { return delay_; }
 
  private:
@@ -63,7 +66,7 @@ class VolumeBalanceRegressor {
   };
   SlidingWindowSum increment_window_;
   MovingAverageFilter window_average_;
-  // The last 2 kSideNeighbours + 1 samples: the middle one goes on. Within 3 noise stds of the port's kink
+  // The last 2 side_neighbours_ + 1 samples: the middle one goes on. Within 3 noise stds of the port's kink
   // its port side is judged by the valve model's spool, corrected by the neighbours' mean measured-minus-
   // modelled spool, so that its own spool noise does not choose the side (doc/equations.md, "Spool noise at
   // the port's kink").
