@@ -238,3 +238,43 @@ TEST(UniformResampler, ImplausibleValuesAreRejectedLikeNonFiniteOnes) {
   EXPECT_EQ(r.health(InputStream::kPressure).implausible, 3u);
   EXPECT_EQ(r.health(InputStream::kPosition).implausible, 1u);
 }
+
+// A controller dithering the spool at its own 1 kHz around 0 crosses the valve's kink between the points of
+// a 2 ms grid: the grid carries the means of the drain and supply parts over each interval, from the line
+// through the valve messages, next to y at the point.
+TEST(UniformResampler, CarriesTheSpoolsDrainAndSupplyPartsOverEachInterval) {
+  UniformResampler r({});
+  std::vector<GridSample> out;
+  for (int k = 0; k < 200; ++k) {
+    const double t = 1e-3 * k;
+    r.push(InputStream::kPressure, {t, 50e5, kNaN}, &out);
+    r.push(InputStream::kPosition, {t, 0.1, 0.0}, &out);
+    r.push(InputStream::kValve, {t, 0.1, k % 2 == 0 ? -0.2 : 0.2}, &out);  // -0.2 on the grid's points
+  }
+  ASSERT_GT(out.size(), 90u);
+  for (std::size_t i = 1; i < out.size(); ++i) {
+    // Over [t - 1 ms, t + 1 ms] the line runs +0.2 -> -0.2 -> +0.2: a quarter of the time at a mean 0.1
+    // above 0, the same below.
+    EXPECT_NEAR(out[i].y, -0.2, 1e-7);
+    EXPECT_NEAR(out[i].y_drain, 0.05, 1e-7) << out[i].t;
+    EXPECT_NEAR(out[i].y_supply, -0.05, 1e-7) << out[i].t;
+  }
+  // A spool that stays on one side: its parts are its interval mean and 0.
+  UniformResampler ramp({});
+  const auto lines = feedLinear(ramp, 0.0, 0.2, 1000.0);
+  for (std::size_t i = 1; i + 1 < lines.size(); ++i) {
+    EXPECT_NEAR(lines[i].y_drain, 0.5 * lines[i].t, 1e-7);
+    EXPECT_EQ(lines[i].y_supply, 0.0f);
+  }
+  // Not measured: NaN parts, as y.
+  UniformResampler unmeasured({});
+  std::vector<GridSample> none;
+  for (int k = 0; k < 20; ++k) {
+    const double t = 1e-3 * k;
+    unmeasured.push(InputStream::kPressure, {t, 50e5, kNaN}, &none);
+    unmeasured.push(InputStream::kPosition, {t, 0.1, 0.0}, &none);
+    unmeasured.push(InputStream::kValve, {t, 0.1, kNaN}, &none);
+  }
+  ASSERT_FALSE(none.empty());
+  for (const auto& g : none) EXPECT_TRUE(std::isnan(g.y_drain) && std::isnan(g.y_supply));
+}

@@ -46,7 +46,13 @@ VolumeBalanceRegressor::VolumeBalanceRegressor(const HydraulicModel& model,
       derivative_(config.derivative_width, 2, config.resampler.sample_period),
       aligned_((config.derivative_width - 1) / 2, 5),
       span_flags_(config.derivative_width, 1),
-      scratch_(model.parameterCount() + 2, 0.0) {}
+      scratch_(model.parameterCount() + 2, 0.0) {
+  valve_column_[HydraulicModel::kValveFlowGain] = true;
+  for (int i = 0; i < model.effectCount(); ++i) {
+    valve_column_[HydraulicModel::kFirstEffect + i] =
+        model.effect(i).coupling() == Effect::Coupling::kValveShape;
+  }
+}
 
 void VolumeBalanceRegressor::clear() {
   raw_.clear();
@@ -128,7 +134,13 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
       const auto drains = [](double y) { return y >= 0.0 ? 1.0 : 0.0; };
       const double own = drains(pending(mid).sample.y);
       double drain_weight = own;
-      if (std::abs(pending(mid).sample.y) < 3.0 * spool_noise_.sigma()) {
+      const GridSample& middle = pending(mid).sample;
+      const bool near_kink = std::abs(middle.y) < 3.0 * spool_noise_.sigma();
+      // Away from the noise's reach a spool that crossed 0 within the interval (a controller dithering it
+      // faster than the grid) drains and fills in it: both parts' flows (dead volume -1.1 % at b 51 / d 35
+      // on the 2 ms grid of a 1 kHz controller without them).
+      const bool split_at_kink = !near_kink && middle.y_drain > 0.0f && middle.y_supply < 0.0f;
+      if (near_kink) {
         if (side_by_model_) {
           double offset = 0.0;
           int neighbours = 0;
@@ -143,7 +155,7 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
           for (int k : {mid - 1, mid + 1}) drain_weight += 0.25 * (known(k) ? drains(pending(k).sample.y) : own);
         }
       }
-      ready = pushIntegral(pending(mid).sample, pending(mid).usable, drain_weight, point, row);
+      ready = pushIntegral(middle, pending(mid).usable, drain_weight, split_at_kink, point, row);
     }
   }
   if (!ready || !raw_ready) return false;
@@ -163,7 +175,8 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
 // (its noise is uncorrelated with dp), the flow part by the 4-point rule on k-2 .. k+1, which is exact for
 // cubics; the 2nd-order midpoint rule biased stiff, fast-controlled cushions (doc/equations.md).
 bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, double drain_weight,
-                                          const ParameterVector& point, RegressionRow* row) {
+                                          bool split_at_kink, const ParameterVector& point,
+                                          RegressionRow* row) {
   if (node_count_ == 4) {
     for (int i = 0; i < 3; ++i) nodes_[i] = nodes_[i + 1];
     node_count_ = 3;
@@ -189,6 +202,18 @@ bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, doub
       for (int j = 0; j < n_; ++j) {
         node.a[j] = drain_weight * node.a[j] + (1.0 - drain_weight) * a_supply[j];
         node.g[j] = drain_weight * node.g[j] + (1.0 - drain_weight) * g_supply[j];
+      }
+    }
+    if (split_at_kink) {
+      double a_part[kMaxParameters], g_drain[kMaxParameters], g_supply[kMaxParameters];
+      signals.y = s.y_drain;
+      signals.port_side = 1.0;
+      model_.regressionColumns(signals, point, a_part, g_drain);
+      signals.y = s.y_supply;
+      signals.port_side = -1.0;
+      model_.regressionColumns(signals, point, a_part, g_supply);
+      for (int j = 0; j < n_; ++j) {
+        if (valve_column_[j]) node.g[j] = g_drain[j] + g_supply[j];
       }
     }
   }

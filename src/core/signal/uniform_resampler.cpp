@@ -194,6 +194,37 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
   return false;
 }
 
+double UniformResampler::lead(int stream) const {
+  return stream == static_cast<int>(InputStream::kValve) ? 0.5 * config_.sample_period : 0.0;
+}
+
+bool UniformResampler::spoolParts(double from, double to, double* drain, double* supply) const {
+  const auto& buffer = channels_[static_cast<int>(InputStream::kValve)].buffer;
+  double positive = 0.0, total = 0.0, covered = 0.0;
+  for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
+    const StreamSample& a = buffer[i];
+    const StreamSample& b = buffer[i + 1];
+    const double lo = std::max(a.stamp, from), hi = std::min(b.stamp, to);
+    if (hi <= lo) continue;
+    if (b.stamp - a.stamp > config_.max_gap || !std::isfinite(a.second) || !std::isfinite(b.second)) return false;
+    const double slope = (b.second - a.second) / (b.stamp - a.stamp);
+    const double y_lo = a.second + slope * (lo - a.stamp), y_hi = a.second + slope * (hi - a.stamp);
+    const double span = hi - lo;
+    total += 0.5 * (y_lo + y_hi) * span;
+    if (y_lo >= 0.0 && y_hi >= 0.0) {
+      positive += 0.5 * (y_lo + y_hi) * span;
+    } else if (y_lo > 0.0 || y_hi > 0.0) {  // crosses 0: the triangle on the drain side
+      const double top = std::max(y_lo, y_hi);
+      positive += 0.5 * top * span * top / (top - std::min(y_lo, y_hi));
+    }
+    covered += span;
+  }
+  if (!(covered > 0.0)) return false;
+  *drain = positive / covered;
+  *supply = (total - positive) / covered;
+  return true;
+}
+
 void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
   const double dt = config_.sample_period;
   if (!grid_started_) {
@@ -225,7 +256,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     for (int s = 0; s < kInputStreamCount; ++s) {
       const Channel& c = channels_[s];
       StreamHealth& h = health_[s];
-      const bool has_future = c.has_any && c.buffer.back().stamp >= t;
+      const bool has_future = c.has_any && c.buffer.back().stamp >= t + (flushing ? 0.0 : lead(s));
       if (has_future) {
         for (const auto& m : c.buffer) {
           if (m.stamp >= t) {
@@ -262,6 +293,11 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     g.v = second[kX];
     g.u = first[kV];
     g.y = second[kV];
+    double drain = kNaN, supply = kNaN;
+    if (std::isfinite(g.y) && spoolParts(t - 0.5 * dt, t + 0.5 * dt, &drain, &supply)) {
+      g.y_drain = static_cast<float>(drain);
+      g.y_supply = static_cast<float>(supply);
+    }
     g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
     g.discontinuity = pending_discontinuity_;
     pending_discontinuity_ = false;
@@ -269,8 +305,10 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     ++next_index_;
 
     const double t_next = static_cast<double>(next_index_) * dt;
-    for (auto& c : channels_) {
-      while (c.buffer.size() >= 2 && c.buffer[1].stamp <= t_next) c.buffer.pop_front();
+    for (int s = 0; s < kInputStreamCount; ++s) {
+      auto& buffer = channels_[s].buffer;
+      const double keep_from = t_next - lead(s);
+      while (buffer.size() >= 2 && buffer[1].stamp <= keep_from) buffer.pop_front();
     }
   }
 }

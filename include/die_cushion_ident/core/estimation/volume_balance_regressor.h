@@ -46,8 +46,10 @@ class VolumeBalanceRegressor {
  private:
   HydraulicSignals signalsAt(double t, double p, double dp, double x, double v, double u, double y,
                              const ParameterVector& linearisation_point) const;
-  bool pushIntegral(const GridSample& s, bool usable, double drain_weight, const ParameterVector& point,
-                    RegressionRow* row);
+  /// `split_at_kink`: the spool crossed 0 within the sample's interval; its valve columns are the drain
+  /// part's flow plus the supply part's (GridSample::y_drain, y_supply).
+  bool pushIntegral(const GridSample& s, bool usable, double drain_weight, bool split_at_kink,
+                    const ParameterVector& point, RegressionRow* row);
   bool pushDerivative(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
   const HydraulicModel& model_;
   RegressionForm form_;
@@ -75,6 +77,7 @@ class VolumeBalanceRegressor {
     bool usable = false;
     double modelled_spool = 0.0;  // the valve model's spool for the sample's command
   };
+  bool valve_column_[kMaxParameters] = {};  // the column is valve flow (K_v or a valve-shape effect)
   bool side_by_model_;     // the grid resolves the valve: its model judges the port side near the kink
   int side_neighbours_;    // spool samples each side that judge it
   Pending pending_[2 * kMaxSideNeighbours + 1];

@@ -25,12 +25,19 @@ struct StreamSample {
 /// One sample on the uniform grid. Channels of a stream that was stale or inside a gap are NaN and
 /// `complete` is false; `discontinuity` marks the first sample after the grid was restarted. Streams are
 /// interpolated linearly, except the valve voltage u, which is held from its stamp on (the amplifier holds
-/// it). The channels are stored in single precision (32 bytes a sample instead of 56: an hour of grid is
-/// 58 MB, not 101): its 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the
+/// it). The channels are stored in single precision (40 bytes a sample instead of 72: an hour of grid is
+/// 72 MB, not 130): its 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the
 /// sensors' noise; time stays double (microseconds of a Unix stamp need 16 digits).
 struct GridSample {
   double t = 0.0;
   float p = 0.0f, x = 0.0f, v = 0.0f, u = 0.0f, y = 0.0f;
+  /// The means of the spool's drain part max(y, 0) and supply part min(y, 0) over the grid interval
+  /// [t - T/2, t + T/2], from the line through the valve messages; NaN where the spool is not measured.
+  /// A spool that crosses 0 between grid points (a controller dithering it at its own rate, faster than the
+  /// grid) drains through one port and fills through the other within one interval: the valve flow over
+  /// the interval needs both parts, which y at t alone cannot give (doc/equations.md).
+  float y_drain = std::numeric_limits<float>::quiet_NaN();
+  float y_supply = std::numeric_limits<float>::quiet_NaN();
   bool complete = true;
   bool discontinuity = false;
 };
@@ -113,6 +120,12 @@ class UniformResampler {
   bool jumpConfirmed() const;
   void emitReady(std::vector<GridSample>* out, bool flushing);
   bool interpolate(int stream, double t, double* first, double* second) const;
+  /// The means of max(y, 0) and min(y, 0) over [from, to] of the line through the valve messages; false
+  /// where the spool is not measured or the interval is not covered.
+  bool spoolParts(double from, double to, double* drain, double* supply) const;
+  /// How far past a grid point a stream must have spoken before the point is emitted: the valve half a
+  /// sample, for the spool's mean over the interval around the point.
+  double lead(int stream) const;
   void updateIntervalStatistics(StreamHealth& h, double interval);
 
   Config config_;
