@@ -140,10 +140,11 @@ int run(int argc, char** argv) {
   });
 
   std::ofstream csv(out + "/settings_study.csv");
-  csv << "form,moving_average_width,derivative_width,sample_period,parameter,bias,std,runs\n";
+  csv << "form,moving_average_width,derivative_width,sample_period,parameter,bias,std,runs,bias_standard_error\n";
   for (const auto& p : points) {
     csv << regressionFormName(p.form) << "," << p.moving_average_width << "," << p.derivative_width << ","
-        << p.sample_period << "," << p.parameter << "," << p.bias << "," << p.std << "," << p.runs << "\n";
+        << p.sample_period << "," << p.parameter << "," << p.bias << "," << p.std << "," << p.runs << "," << p.biasStandardError()
+        << "\n";
   }
   csv.close();
   if (!csv) fail(4, "cannot write " + out + "/settings_study.csv");

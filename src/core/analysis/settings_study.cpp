@@ -112,7 +112,7 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points, con
   // Per form and widths (at the configured sampling time): the worst parameter's |bias| + 2 std, and the
   // worst |bias| with its parameter.
   struct Worst {
-    double error = 0.0, bias = 0.0;
+    double error = 0.0, bias = 0.0, bias_standard_error = 0.0;
     std::string parameter;
   };
   std::map<std::pair<int, int>, Worst> integral, derivative;
@@ -124,6 +124,7 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points, con
       w.error = std::max(w.error, error);
       if (std::abs(p.bias) >= std::abs(w.bias)) {
         w.bias = p.bias;
+        w.bias_standard_error = p.biasStandardError();
         w.parameter = p.parameter;
       }
     }
@@ -149,7 +150,14 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points, con
   };
   if (integral.empty() || derivative.empty()) return "The study has no points at the configured sampling time.";
   const auto configured = integral.find({base.moving_average_width, base.derivative_width});
-  const auto integral_best = best(integral), integral_worst = most_biased(integral);
+  const auto integral_best = best(integral);
+  // The integral form's bias changes sign over the widths (spool noise pushes it up at narrow windows, the
+  // controller's dither down at wide ones): its range, each end with its widths.
+  auto integral_low = integral.begin(), integral_high = integral.begin();
+  for (auto it = integral.begin(); it != integral.end(); ++it) {
+    if (it->second.bias < integral_low->second.bias) integral_low = it;
+    if (it->second.bias > integral_high->second.bias) integral_high = it;
+  }
   const auto derivative_best = best(derivative), derivative_worst = most_biased(derivative);
   double best_period = base.resampler.sample_period, best_period_error = 1e300;
   for (const auto& [period, error] : period_error) {
@@ -158,20 +166,26 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points, con
       best_period = period;
     }
   }
-  char text[1200];
+  char text[1600];
   std::snprintf(
       text, sizeof(text),
-      "Integral form (the default): at the configured widths (b %d, d %d) the largest bias is %+.2f %% (%s); it "
-      "grows with the widths up to %+.2f %% (%s at b %d, d %d). Least bias + 2 std: b %d, d %d (%.2f %%, worst "
+      "Integral form (the default): at the configured widths (b %d, d %d) the largest bias is %+.2f +- %.2f %% "
+      "(%s; +- the seeds' standard error); over the widths the largest bias of a parameter lies between "
+      "%+.2f +- %.2f %% (%s at b %d, d %d) and %+.2f +- %.2f %% (%s at b %d, d %d). "
+      "Least bias + 2 std: b %d, d %d (%.2f %%, worst "
       "parameter) - set moving_average_width %d and derivative_width %d. The paper's filtered-derivative form "
       "is biased by up to %+.1f %% (%s at b %d, d %d), least at b %d, d %d (%.2f %%). Sampling time at the "
       "configured widths: %.4g s gives the least bias + 2 std (%.2f %%); keep it at most a tenth of the "
       "pressure's t63 (step test).",
       base.moving_average_width, base.derivative_width,
       configured != integral.end() ? 100 * configured->second.bias : 0.0,
+      configured != integral.end() ? 100 * configured->second.bias_standard_error : 0.0,
       configured != integral.end() ? configured->second.parameter.c_str() : "not studied",
-      100 * integral_worst->second.bias, integral_worst->second.parameter.c_str(), integral_worst->first.first,
-      integral_worst->first.second, integral_best->first.first, integral_best->first.second,
+      100 * integral_low->second.bias, 100 * integral_low->second.bias_standard_error,
+      integral_low->second.parameter.c_str(), integral_low->first.first, integral_low->first.second,
+      100 * integral_high->second.bias, 100 * integral_high->second.bias_standard_error,
+      integral_high->second.parameter.c_str(), integral_high->first.first, integral_high->first.second,
+      integral_best->first.first, integral_best->first.second,
       100 * integral_best->second.error, integral_best->first.first, integral_best->first.second,
       100 * derivative_worst->second.bias, derivative_worst->second.parameter.c_str(),
       derivative_worst->first.first, derivative_worst->first.second, derivative_best->first.first,
