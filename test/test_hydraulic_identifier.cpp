@@ -294,3 +294,44 @@ TEST(VolumeBalanceRegressor, TheSpoolsPartsWithinAnIntervalRemoveTheDithersDeadV
   EXPECT_LT(std::abs(with_parts), 0.008);
   EXPECT_GT(with_parts - without_parts, 0.002) << "the parts no longer move the bias: revisit doc/equations.md";
 }
+
+// White noise on the recorded pressure enters the capacitive columns (errors in variables) and pulls their
+// coefficients towards zero: 1/K' and V_dead/K' by the noise's share of the columns' spread. The identifier
+// measures the grid pressure's noise and removes that share from the normal equations (doc/equations.md,
+// "Pressure noise in the capacitive columns"). Without a moving average (b 1 / d 5) the row's dp/dt carries
+// the noise undamped; the same noise-free recording with and without 0.5 bar added, 4 seeds. Measured: the
+// bulk modulus moves by +0.33 %, the dead volume by -0.22 % (without the compensation +5.3 and +2.7 %).
+TEST(HydraulicIdentifier, PressureNoiseInTheCapacitiveColumnsIsCompensated) {
+  IdentificationConfig config;
+  config.moving_average_width = 1;
+  config.derivative_width = 5;
+  double bulk_shift = 0.0, dead_shift = 0.0;
+  const int seeds = 4;
+  for (int seed = 0; seed < seeds; ++seed) {
+    SimulatorConfig plant;
+    plant.seed = 2000 + seed;
+    plant.sensors.pressure_noise = 0.0;
+    plant.sensors.spool_noise = 0.0;
+    plant.sensors.position_noise = 0.0;
+    plant.sensors.velocity_noise = 0.0;
+    DieCushionSimulator simulator(plant);
+    const std::vector<GridSample> clean =
+        simulateGrid(simulator, 3 * simulator.program().cycleDuration(), config.resamplerConfig());
+    std::vector<GridSample> noisy = clean;
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.5e5);
+    for (auto& g : noisy) g.p = static_cast<float>(g.p + noise(rng));
+    const auto fit = [&](const std::vector<GridSample>& grid) {
+      return fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX);
+    };
+    const HydraulicEstimate reference = fit(clean), with_noise = fit(noisy);
+    bulk_shift += estimateOf(with_noise, "bulk_modulus") / estimateOf(reference, "bulk_modulus") - 1.0;
+    dead_shift += estimateOf(with_noise, "dead_volume") / estimateOf(reference, "dead_volume") - 1.0;
+  }
+  bulk_shift /= seeds;
+  dead_shift /= seeds;
+  std::printf("0.5 bar white pressure noise at b 1 / d 5 moves the bulk modulus by %+.2f %%, the dead volume by "
+              "%+.2f %%\n", 100 * bulk_shift, 100 * dead_shift);
+  EXPECT_LT(std::abs(bulk_shift), 1.0);
+  EXPECT_LT(std::abs(dead_shift), 1.0);
+}

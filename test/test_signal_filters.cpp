@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "die_cushion_ident/core/signal/signal_filters.h"
-#include "die_cushion_ident/core/signal/spool_noise_estimator.h"
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
 
 using namespace die_cushion_ident;
 
@@ -70,8 +70,8 @@ namespace {
 
 // The spool's noise from its second differences, unimpressed by the spool's own motion (a 5 Hz swing of
 // 0.3 on the 2 ms grid) and by a step; within 5 % of the true 0.002 after 20 000 samples.
-TEST(SpoolNoiseEstimator, FindsTheWhiteNoiseUnderAMovingSpool) {
-  SpoolNoiseEstimator estimator;
+TEST(WhiteNoiseEstimator, FindsTheWhiteNoiseUnderAMovingSpool) {
+  WhiteNoiseEstimator estimator;
   EXPECT_TRUE(std::isinf(estimator.sigma()));
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 0.002);

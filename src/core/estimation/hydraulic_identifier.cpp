@@ -52,6 +52,14 @@ HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
       std::ceil(static_cast<double>(config_.moving_average_width + config_.derivative_width - 1) /
                 config_.decimation()));
   scores_ = NeweyWestCovariance(n, 2 * overlapping_steps, config_.forgetting_factor);
+  // A row's pressure enters as MA_b[p(t) - p(t - (d-1) dt)] / ((d-1) dt): white noise of variance s^2 gives it
+  // the variance 2 s^2 min(d-1, b) / b^2 / ((d-1) dt)^2. The paper's derivative form is left as published.
+  if (config_.regression_form == RegressionForm::kIntegral) {
+    const double b = config_.moving_average_width, span = config_.derivative_width - 1.0;
+    const double window = span * config_.resampler.sample_period;
+    row_noise_per_variance_ = 2.0 * std::min(span, b) / (b * b) / (window * window);
+  }
+  column_noise_ = CovarianceMatrix::Zero(n, n);
   refreshLinearisationPoint();
 }
 
@@ -59,15 +67,40 @@ void HydraulicIdentifier::reset() {
   rls_->reset();
   regressor_->clear();
   scores_.reset();
+  column_noise_.setZero();
+  pressure_noise_ = WhiteNoiseEstimator();
+  recent_pressures_ = 0;
   rows_ = steps_ = skipped_invalid_ = skipped_unexcited_ = 0;
   error_mean_square_ = error_weight_ = 0.0;
   last_step_updated_ = false;
   refreshLinearisationPoint();
 }
 
+ParameterVector HydraulicIdentifier::coefficients() const {
+  const ParameterVector& theta = rls_->parameters();
+  const double variance = pressure_noise_.sigma() * pressure_noise_.sigma();
+  if (!(row_noise_per_variance_ > 0.0) || !std::isfinite(variance) || rls_->updates() == 0) return theta;
+  const CovarianceMatrix bias = variance * (rls_->covariance() * column_noise_);
+  // A correction as large as the information itself means the noise is not what the estimator measured
+  // (or the data barely excite the model): then none, rather than an amplified one.
+  if (!bias.allFinite() || bias.lpNorm<Eigen::Infinity>() > 0.5) return theta;
+  const CovarianceMatrix identity = CovarianceMatrix::Identity(theta.size(), theta.size());
+  return (identity - bias).partialPivLu().solve(theta);
+}
+
 ParameterVector HydraulicIdentifier::physicalParameters() const {
-  const ParameterVector c = rls_->parameters().cwiseProduct(scale_);
-  return model_.physicalFromCoefficients(c);
+  return model_.physicalFromCoefficients(coefficients().cwiseProduct(scale_));
+}
+
+void HydraulicIdentifier::addPressureForNoise(const GridSample& s, bool usable) {
+  if (!usable || s.discontinuity) {
+    recent_pressures_ = 0;
+    if (!usable) return;
+  }
+  recent_pressure_[0] = recent_pressure_[1];
+  recent_pressure_[1] = recent_pressure_[2];
+  recent_pressure_[2] = s.p;
+  if (++recent_pressures_ >= 3) pressure_noise_.add(recent_pressure_[0], recent_pressure_[1], recent_pressure_[2]);
 }
 
 void HydraulicIdentifier::freezeLinearisationPoint(const ParameterVector& physical) {
@@ -108,6 +141,7 @@ bool HydraulicIdentifier::push(const GridSample& s) {
   const bool usable = s.complete && std::isfinite(s.p) && std::isfinite(s.x) && std::isfinite(s.u) &&
                       std::isfinite(s.y) && s.p >= config_.min_pressure &&
                       std::abs(s.y) <= config_.max_spool_opening;
+  if (row_noise_per_variance_ > 0.0) addPressureForNoise(s, usable);
   if (!regressor_->push(s, usable, linearisation_point_, &row_)) return false;
   if (++rows_ % static_cast<std::uint64_t>(config_.decimation()) != 0) return false;
   last_step_updated_ = identificationStep();
@@ -149,6 +183,21 @@ bool HydraulicIdentifier::identificationStep() {
   }
   // The score with the a-posteriori residual: the a-priori one carries the start-up transient.
   scores_.add(phi * (row_.z / flow_scale_ - phi.dot(rls_->parameters())));
+  if (row_noise_per_variance_ > 0.0) {
+    HydraulicSignals signals;
+    signals.t = row_.t;
+    signals.p = row_.p;
+    signals.x = row_.x;
+    signals.u = row_.u;
+    signals.y = row_.y;
+    signals.V = model_.chamberVolume(row_.x, linearisation_point_(HydraulicModel::kDeadVolume));
+    double a[kMaxParameters], g[kMaxParameters];
+    model_.regressionColumns(signals, linearisation_point_, a, g);
+    ParameterVector capacitive(n);
+    for (int j = 0; j < n; ++j) capacitive(j) = a[j] * scale_(j) / flow_scale_;
+    column_noise_ = config_.forgetting_factor * column_noise_ +
+                    row_noise_per_variance_ * capacitive * capacitive.transpose();
+  }
 
   // Equation error in the user's units: flow error over capacitance = error of dp/dt.
   const double capacitance = capacitanceAt(row_);
@@ -173,7 +222,7 @@ HydraulicEstimate HydraulicIdentifier::estimate() const {
   e.equation_error_rms = std::sqrt(error_mean_square_);
 
   const int n = model_.parameterCount();
-  const ParameterVector c = rls_->parameters().cwiseProduct(scale_);
+  const ParameterVector c = coefficients().cwiseProduct(scale_);
   CovarianceMatrix J;
   const ParameterVector physical = model_.physicalFromCoefficients(c, &J);
   const CovarianceMatrix& P = rls_->covariance();

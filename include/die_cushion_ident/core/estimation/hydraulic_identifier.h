@@ -10,6 +10,7 @@
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/estimation/recursive_least_squares.h"
 #include "die_cushion_ident/core/estimation/volume_balance_regressor.h"
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
 
 namespace die_cushion_ident {
 
@@ -81,6 +82,11 @@ class HydraulicIdentifier {
   void refreshLinearisationPoint();
   void refreshLinearisationPoint(ParameterVector physical);
   bool identificationStep();
+  /// The normalised RLS coefficients with the pressure noise's bias removed: the noise in the capacitive
+  /// columns (errors in variables) adds its covariance to the normal equations, so the least-squares solution
+  /// is (I - sigma_p^2 P C)^-1 times the RLS one (doc/equations.md, "Pressure noise in the capacitive columns").
+  ParameterVector coefficients() const;
+  void addPressureForNoise(const GridSample& s, bool usable);
 
   IdentificationConfig config_;
   HydraulicModel model_;
@@ -89,6 +95,14 @@ class HydraulicIdentifier {
   ParameterVector scale_;  // coefficient = normalised parameter * scale
   double flow_scale_;      // [m^3/s] divides both sides of the equation
   NeweyWestCovariance scores_{1, 0, 1.0};  // long-run covariance of the normalised scores
+  // The grid pressure's white noise, and per unit of its variance the forgetting-weighted sum of the noise
+  // covariances of the normalised rows' capacitive columns: sum lambda^(N-t) f a_t a_t^T, with f the variance
+  // of a row's window-difference of pressure per unit noise variance.
+  WhiteNoiseEstimator pressure_noise_;
+  double recent_pressure_[3] = {0.0, 0.0, 0.0};
+  int recent_pressures_ = 0;
+  double row_noise_per_variance_ = 0.0;
+  CovarianceMatrix column_noise_;
   ParameterVector linearisation_point_;
   bool linearisation_frozen_ = false;
   RegressionRow row_;

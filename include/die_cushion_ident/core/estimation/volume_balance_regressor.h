@@ -1,6 +1,6 @@
 #pragma once
 
-#include "die_cushion_ident/core/signal/spool_noise_estimator.h"
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/model/hydraulic_model.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/signal/signal_filters.h"
@@ -81,7 +81,7 @@ class VolumeBalanceRegressor {
   bool side_by_model_;     // the grid resolves the valve: its model judges the port side near the kink
   int side_neighbours_;    // spool samples each side that judge it
   Pending pending_[2 * kMaxSideNeighbours + 1];
-  SpoolNoiseEstimator spool_noise_;
+  WhiteNoiseEstimator spool_noise_;
   SampledServoValve spool_model_;
   bool spool_model_started_ = false;
   int pending_count_ = 0;

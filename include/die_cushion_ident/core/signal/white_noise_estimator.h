@@ -5,15 +5,16 @@
 
 namespace die_cushion_ident {
 
-/// The measured spool's white noise [normalised spool], estimated on the fly from the median absolute second
-/// difference y[k+1] - 2 y[k] + y[k-1] (std sqrt(6) sigma for white noise; the median ignores the spool's
-/// own fast moves). A P-square median (Boost.Accumulators): constant memory, no forgetting.
-class SpoolNoiseEstimator {
+/// A sensor's white noise (the spool's, the pressure's), in the signal's unit, estimated on the fly from the
+/// median absolute second difference y[k+1] - 2 y[k] + y[k-1] (std sqrt(6) sigma for white noise; the median
+/// ignores the signal's own fast moves). A P-square median (Boost.Accumulators): constant memory, no
+/// forgetting.
+class WhiteNoiseEstimator {
  public:
-  SpoolNoiseEstimator();
-  ~SpoolNoiseEstimator();
-  SpoolNoiseEstimator(SpoolNoiseEstimator&&) noexcept;
-  SpoolNoiseEstimator& operator=(SpoolNoiseEstimator&&) noexcept;
+  WhiteNoiseEstimator();
+  ~WhiteNoiseEstimator();
+  WhiteNoiseEstimator(WhiteNoiseEstimator&&) noexcept;
+  WhiteNoiseEstimator& operator=(WhiteNoiseEstimator&&) noexcept;
 
   void add(double previous, double current, double next);
   /// The noise's standard deviation; +infinity until 32 second differences are in.

@@ -1,4 +1,4 @@
-#include "die_cushion_ident/core/signal/spool_noise_estimator.h"
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
 
 #include <boost/accumulators/accumulators.hpp>
 #include <boost/accumulators/statistics/median.hpp>
@@ -9,14 +9,14 @@ namespace die_cushion_ident {
 
 namespace acc = boost::accumulators;
 
-struct SpoolNoiseEstimator::Median {
+struct WhiteNoiseEstimator::Median {
   acc::accumulator_set<double, acc::stats<acc::tag::median(acc::with_p_square_quantile)>> values;
 };
 
-SpoolNoiseEstimator::SpoolNoiseEstimator() : median_(std::make_unique<Median>()) {}
-SpoolNoiseEstimator::~SpoolNoiseEstimator() = default;
-SpoolNoiseEstimator::SpoolNoiseEstimator(SpoolNoiseEstimator&&) noexcept = default;
-SpoolNoiseEstimator& SpoolNoiseEstimator::operator=(SpoolNoiseEstimator&&) noexcept = default;
+WhiteNoiseEstimator::WhiteNoiseEstimator() : median_(std::make_unique<Median>()) {}
+WhiteNoiseEstimator::~WhiteNoiseEstimator() = default;
+WhiteNoiseEstimator::WhiteNoiseEstimator(WhiteNoiseEstimator&&) noexcept = default;
+WhiteNoiseEstimator& WhiteNoiseEstimator::operator=(WhiteNoiseEstimator&&) noexcept = default;
 
 namespace {
 // Every second difference while the estimate forms, then one in four: the noise is the sensor's, and a
@@ -26,7 +26,7 @@ constexpr long kDense = 256;
 constexpr long kStride = 4;
 }  // namespace
 
-void SpoolNoiseEstimator::add(double previous, double current, double next) {
+void WhiteNoiseEstimator::add(double previous, double current, double next) {
   const double second_difference = next - 2.0 * current + previous;
   if (!std::isfinite(second_difference)) return;
   if (offered_++ >= kDense && offered_ % kStride != 0) return;
@@ -36,6 +36,6 @@ void SpoolNoiseEstimator::add(double previous, double current, double next) {
   if (count_ >= 32) sigma_ = acc::median(median_->values) / (0.6744897501960817 * std::sqrt(6.0));
 }
 
-double SpoolNoiseEstimator::sigma() const { return sigma_; }
+double WhiteNoiseEstimator::sigma() const { return sigma_; }
 
 }  // namespace die_cushion_ident
