@@ -7,6 +7,7 @@
 #include <cmath>
 #include <future>
 #include <limits>
+#include <memory>
 #include <tuple>
 #include <utility>
 
@@ -14,8 +15,50 @@
 
 namespace die_cushion_ident {
 
+namespace {
+using Stretch = std::pair<std::size_t, std::size_t>;  // [begin, end) of the grid
+
+// A batch fit without forgetting over stretches of the grid, each starting afresh (a discontinuity); the
+// identifier that holds it.
+std::unique_ptr<HydraulicIdentifier> fitIdentifierOnStretches(const std::vector<GridSample>& grid,
+                                                              const IdentificationConfig& config,
+                                                              const std::vector<Stretch>& stretches) {
+  IdentificationConfig batch = config;
+  batch.forgetting_factor = 1.0;  // constant parameters over the whole recording: least squares
+  const auto pass = [&](const ParameterVector* frozen_point) {
+    auto identifier = std::make_unique<HydraulicIdentifier>(batch);
+    if (frozen_point) identifier->freezeLinearisationPoint(*frozen_point);
+    for (const Stretch& stretch : stretches) {
+      for (std::size_t i = stretch.first; i < stretch.second && i < grid.size(); ++i) {
+        GridSample g = grid[i];
+        if (i == stretch.first) g.discontinuity = true;
+        identifier->push(g);
+      }
+    }
+    return identifier;
+  };
+  auto identifier = pass(nullptr);
+  bool reshapes_valve = false;
+  for (int i = 0; i < identifier->model().effectCount(); ++i) {
+    reshapes_valve |= identifier->model().effect(i).coupling() == Effect::Coupling::kValveShape;
+  }
+  // Valve-shape effects are linearised at the running estimate; without forgetting, rows linearised at an
+  // early, wrong overlap or tank pressure would weigh as much as the rest for good. A second pass with
+  // every row linearised at the first pass's estimate removes that (issue 16).
+  const ParameterVector physical = identifier->physicalParameters();
+  if (reshapes_valve && identifier->updates() > 0 && physical.allFinite()) identifier = pass(&physical);
+  return identifier;
+}
+
+HydraulicEstimate fitOnStretches(const std::vector<GridSample>& grid, const IdentificationConfig& config,
+                                 const std::vector<Stretch>& stretches) {
+  return fitIdentifierOnStretches(grid, config, stretches)->estimate();
+}
+}  // namespace
+
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                            const IdentificationConfig& config, int split, bool side_by_side) {
+                            const IdentificationConfig& config, int split, bool side_by_side,
+                            HydraulicEstimate* fitted_on_both) {
   HeldOutErrors result;
   result.cycle_rms.assign(strokes.cycles, std::numeric_limits<double>::quiet_NaN());
   const HydraulicModel model =
@@ -23,10 +66,12 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
   // Each fold fills only its own held-out cycles' sums.
   std::vector<double> sum(strokes.cycles, 0.0);
   std::vector<int> count(strokes.cycles, 0);
+  std::unique_ptr<HydraulicIdentifier> fits[2];
   const auto fold = [&](int which) {
     const int fit_first = which == 0 ? 0 : split, fit_last = which == 0 ? split - 1 : strokes.cycles - 1;
     const int test_first = which == 0 ? split : 0, test_last = which == 0 ? strokes.cycles - 1 : split - 1;
-    const ParameterVector theta = fitOnCycles(grid, strokes, config, fit_first, fit_last).values();
+    fits[which] = fitIdentifierOnStretches(grid, config, {strokes.range(fit_first, fit_last)});
+    const ParameterVector theta = fits[which]->estimate().values();
     FreeRunPressure free_run(model, config.min_pressure);
     for (int c = test_first; c <= test_last; ++c) {
       const auto [begin, end] = strokes.range(c, c);
@@ -44,6 +89,7 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
   std::future<void> second = std::async(side_by_side ? std::launch::async : std::launch::deferred, fold, 1);
   fold(0);
   second.get();
+  if (fitted_on_both) *fitted_on_both = fits[0]->combinedEstimate(*fits[1]);
   double total = 0.0;
   int total_n = 0;
   for (int c = 0; c < strokes.cycles; ++c) {
@@ -100,41 +146,6 @@ std::vector<bool> holmRejected(const std::vector<double>& p_values, double signi
   }
   return rejected;
 }
-
-namespace {
-using Stretch = std::pair<std::size_t, std::size_t>;  // [begin, end) of the grid
-
-// A batch fit without forgetting over stretches of the grid, each starting afresh (a discontinuity).
-HydraulicEstimate fitOnStretches(const std::vector<GridSample>& grid, const IdentificationConfig& config,
-                                 const std::vector<Stretch>& stretches) {
-  IdentificationConfig batch = config;
-  batch.forgetting_factor = 1.0;  // constant parameters over the whole recording: least squares
-  const auto pass = [&](const ParameterVector* frozen_point) {
-    HydraulicIdentifier identifier(batch);
-    if (frozen_point) identifier.freezeLinearisationPoint(*frozen_point);
-    for (const Stretch& stretch : stretches) {
-      for (std::size_t i = stretch.first; i < stretch.second && i < grid.size(); ++i) {
-        GridSample g = grid[i];
-        if (i == stretch.first) g.discontinuity = true;
-        identifier.push(g);
-      }
-    }
-    bool reshapes_valve = false;
-    for (int i = 0; i < identifier.model().effectCount(); ++i) {
-      reshapes_valve |= identifier.model().effect(i).coupling() == Effect::Coupling::kValveShape;
-    }
-    return std::make_tuple(identifier.estimate(), identifier.physicalParameters(), reshapes_valve);
-  };
-  auto [estimate, physical, reshapes_valve] = pass(nullptr);
-  // Valve-shape effects are linearised at the running estimate; without forgetting, rows linearised at an
-  // early, wrong overlap or tank pressure would weigh as much as the rest for good. A second pass with
-  // every row linearised at the first pass's estimate removes that (issue 16).
-  if (reshapes_valve && estimate.updates > 0 && physical.allFinite()) {
-    std::tie(estimate, physical, std::ignore) = pass(&physical);
-  }
-  return estimate;
-}
-}  // namespace
 
 HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                               const IdentificationConfig& config, int first_cycle, int last_cycle) {

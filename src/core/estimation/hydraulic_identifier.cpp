@@ -60,6 +60,7 @@ HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
     row_noise_per_variance_ = 2.0 * std::min(span, b) / (b * b) / (window * window);
   }
   column_noise_ = CovarianceMatrix::Zero(n, n);
+  running_correction_ = CovarianceMatrix::Identity(n, n);
   refreshLinearisationPoint();
 }
 
@@ -68,7 +69,9 @@ void HydraulicIdentifier::reset() {
   regressor_->clear();
   scores_.reset();
   column_noise_.setZero();
-  pressure_noise_ = WhiteNoiseEstimator();
+  running_correction_.setIdentity();
+  running_correction_updates_ = 0;
+  pressure_noise_ = WhiteNoiseEstimator(32);
   recent_pressures_ = 0;
   rows_ = steps_ = skipped_invalid_ = skipped_unexcited_ = 0;
   error_mean_square_ = error_weight_ = 0.0;
@@ -76,20 +79,25 @@ void HydraulicIdentifier::reset() {
   refreshLinearisationPoint();
 }
 
-ParameterVector HydraulicIdentifier::coefficients() const {
-  const ParameterVector& theta = rls_->parameters();
+CovarianceMatrix HydraulicIdentifier::noiseCorrection(const CovarianceMatrix& P, const CovarianceMatrix& column_noise,
+                                                      std::uint64_t updates) const {
+  const int n = model_.parameterCount();
+  const CovarianceMatrix identity = CovarianceMatrix::Identity(n, n);
   const double variance = pressure_noise_.sigma() * pressure_noise_.sigma();
-  if (!(row_noise_per_variance_ > 0.0) || !std::isfinite(variance) || rls_->updates() == 0) return theta;
-  const CovarianceMatrix bias = variance * (rls_->covariance() * column_noise_);
+  if (!(row_noise_per_variance_ > 0.0) || !std::isfinite(variance) || updates == 0) return identity;
+  const CovarianceMatrix bias = variance * (P * column_noise);
   // A correction as large as the information itself means the noise is not what the estimator measured
   // (or the data barely excite the model): then none, rather than an amplified one.
-  if (!bias.allFinite() || bias.lpNorm<Eigen::Infinity>() > 0.5) return theta;
-  const CovarianceMatrix identity = CovarianceMatrix::Identity(theta.size(), theta.size());
-  return (identity - bias).partialPivLu().solve(theta);
+  if (!bias.allFinite() || bias.lpNorm<Eigen::Infinity>() > 0.5) return identity;
+  return (identity - bias).inverse();
 }
 
 ParameterVector HydraulicIdentifier::physicalParameters() const {
   return model_.physicalFromCoefficients(coefficients().cwiseProduct(scale_));
+}
+
+ParameterVector HydraulicIdentifier::runningPhysicalParameters() const {
+  return model_.physicalFromCoefficients((running_correction_ * rls_->parameters()).cwiseProduct(scale_));
 }
 
 void HydraulicIdentifier::addPressureForNoise(const GridSample& s, bool usable) {
@@ -109,7 +117,7 @@ void HydraulicIdentifier::freezeLinearisationPoint(const ParameterVector& physic
   linearisation_frozen_ = true;
 }
 
-void HydraulicIdentifier::refreshLinearisationPoint() { refreshLinearisationPoint(physicalParameters()); }
+void HydraulicIdentifier::refreshLinearisationPoint() { refreshLinearisationPoint(runningPhysicalParameters()); }
 
 void HydraulicIdentifier::refreshLinearisationPoint(ParameterVector physical) {
   if (linearisation_frozen_) return;
@@ -197,6 +205,10 @@ bool HydraulicIdentifier::identificationStep() {
     for (int j = 0; j < n; ++j) capacitive(j) = a[j] * scale_(j) / flow_scale_;
     column_noise_ = config_.forgetting_factor * column_noise_ +
                     row_noise_per_variance_ * capacitive * capacitive.transpose();
+    if (rls_->updates() >= running_correction_updates_ + kCorrectionRefresh) {
+      running_correction_ = noiseCorrection();
+      running_correction_updates_ = rls_->updates();
+    }
   }
 
   // Equation error in the user's units: flow error over capacitance = error of dp/dt.
@@ -220,21 +232,58 @@ HydraulicEstimate HydraulicIdentifier::estimate() const {
   e.skipped_invalid = skipped_invalid_;
   e.skipped_unexcited = skipped_unexcited_;
   e.equation_error_rms = std::sqrt(error_mean_square_);
+  fillParameters(rls_->parameters(), rls_->covariance(), scores_.scoreCovariance(), column_noise_, e.updates, &e);
+  return e;
+}
 
+HydraulicEstimate HydraulicIdentifier::combinedEstimate(const HydraulicIdentifier& other) const {
   const int n = model_.parameterCount();
-  const ParameterVector c = coefficients().cwiseProduct(scale_);
+  if (other.model_.parameterCount() != n) throw std::invalid_argument("combinedEstimate: different models");
+  if (other.rls_->updates() == 0) return estimate();
+  if (rls_->updates() == 0) return other.estimate();
+  // Both started from the same prior (theta0, P0): it is in each part's information once.
+  const CovarianceMatrix prior_information =
+      CovarianceMatrix::Identity(n, n) / config_.initial_covariance;
+  const CovarianceMatrix information_a = rls_->covariance().inverse();
+  const CovarianceMatrix information_b = other.rls_->covariance().inverse();
+  const CovarianceMatrix information = information_a + information_b - prior_information;
+  const ParameterVector information_vector = information_a * rls_->parameters() +
+                                             information_b * other.rls_->parameters() -
+                                             prior_information * rls_->initialParameters();
+  const Eigen::LDLT<CovarianceMatrix> solver(information);
+  HydraulicEstimate e;
+  e.t = std::max(row_.t, other.row_.t);
+  e.effects = model_.effectNames();
+  e.updates = rls_->updates() + other.rls_->updates();
+  e.steps = steps_ + other.steps_;
+  e.skipped_invalid = skipped_invalid_ + other.skipped_invalid_;
+  e.skipped_unexcited = skipped_unexcited_ + other.skipped_unexcited_;
+  const double weight = error_weight_ + other.error_weight_;
+  e.equation_error_rms =
+      weight > 0.0 ? std::sqrt((error_mean_square_ * error_weight_ + other.error_mean_square_ * other.error_weight_) /
+                               weight)
+                   : 0.0;
+  CovarianceMatrix P = solver.solve(CovarianceMatrix::Identity(n, n));
+  P = 0.5 * (P + P.transpose());
+  fillParameters(solver.solve(information_vector), P, scores_.scoreCovariance() + other.scores_.scoreCovariance(),
+                 column_noise_ + other.column_noise_, e.updates, &e);
+  return e;
+}
+
+void HydraulicIdentifier::fillParameters(const ParameterVector& theta, const CovarianceMatrix& P,
+                                         const CovarianceMatrix& S, const CovarianceMatrix& column_noise,
+                                         std::uint64_t updates, HydraulicEstimate* e) const {
+  const int n = model_.parameterCount();
+  const ParameterVector c = (noiseCorrection(P, column_noise, updates) * theta).cwiseProduct(scale_);
   CovarianceMatrix J;
   const ParameterVector physical = model_.physicalFromCoefficients(c, &J);
-  const CovarianceMatrix& P = rls_->covariance();
-  const CovarianceMatrix coefficient_covariance =
-      scale_.asDiagonal() * (P * scores_.scoreCovariance() * P) * scale_.asDiagonal();
+  const CovarianceMatrix coefficient_covariance = scale_.asDiagonal() * (P * S * P) * scale_.asDiagonal();
   const CovarianceMatrix physical_covariance = J * coefficient_covariance * J.transpose();
   for (int i = 0; i < n; ++i) {
     const auto& info = model_.parameterInfos()[i];
-    e.parameters.push_back(
+    e->parameters.push_back(
         {info.name, info.unit, physical(i), std::sqrt(std::max(physical_covariance(i, i), 0.0))});
   }
-  return e;
 }
 
 }  // namespace die_cushion_ident

@@ -17,9 +17,11 @@ struct HeldOutErrors {
 };
 
 /// `side_by_side`: the two folds on two threads (the ranking's candidates are fewer than the cores' work
-/// items otherwise); the result is the same.
+/// items otherwise); the result is the same. `fitted_on_both`, when given, receives the fit on both folds'
+/// cycles combined from the two folds' fits (HydraulicIdentifier::combinedEstimate) rather than fitted again.
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                            const IdentificationConfig& config, int split, bool side_by_side = false);
+                            const IdentificationConfig& config, int split, bool side_by_side = false,
+                            HydraulicEstimate* fitted_on_both = nullptr);
 
 /// A model against its base on the same held-out cycles: the cycles are the independent units of a paired
 /// one-sided t test on the log ratio of their errors (a stroke holds thousands of strongly correlated

@@ -44,6 +44,7 @@ class RecursiveLeastSquares {
   void reset();
 
   const ParameterVector& parameters() const { return theta_; }
+  const ParameterVector& initialParameters() const { return theta0_; }
   const CovarianceMatrix& covariance() const { return P_; }
   /// Exponentially weighted variance of the normalised a-priori error e^2 / (1 + phi^T P phi / lambda),
   /// an estimate of the equation-error variance sigma^2; sigma^2 * P estimates the parameter covariance.

@@ -11,7 +11,8 @@ namespace die_cushion_ident {
 /// forgetting.
 class WhiteNoiseEstimator {
  public:
-  WhiteNoiseEstimator();
+  /// `stride`: after the first 256 second differences, one in `stride` enters the median.
+  explicit WhiteNoiseEstimator(long stride = 4);
   ~WhiteNoiseEstimator();
   WhiteNoiseEstimator(WhiteNoiseEstimator&&) noexcept;
   WhiteNoiseEstimator& operator=(WhiteNoiseEstimator&&) noexcept;
@@ -19,12 +20,13 @@ class WhiteNoiseEstimator {
   void add(double previous, double current, double next);
   /// The noise's standard deviation; +infinity until 32 second differences are in.
   double sigma() const;
-  /// Second differences the median holds (all of the first 256, then one in four).
+  /// Second differences the median holds (all of the first 256, then one in `stride`).
   long count() const { return count_; }
 
  private:
   struct Median;
   std::unique_ptr<Median> median_;
+  long stride_ = 4;
   long offered_ = 0;
   long count_ = 0;
   double sigma_ = std::numeric_limits<double>::infinity();
