@@ -9,22 +9,27 @@
 
 #include "die_cushion_ident/core/analysis/formula_search.h"
 #include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/util/parallel_for.h"
 
 namespace die_cushion_ident {
 
 std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<GridSample>& grid,
                                                              const StrokeSegmentation& strokes,
                                                              const IdentificationConfig& config,
-                                                             const HydraulicEstimate& estimate, int groups) {
+                                                             const HydraulicEstimate& estimate, int groups,
+                                                             int jobs) {
   std::vector<std::string> found;
   const std::size_t n = estimate.parameters.size();
   const int g_count = std::min(groups, strokes.cycles);
   if (g_count < 4 || n == 0) return found;
-  std::vector<HydraulicEstimate> fits;
-  for (int g = 0; g < g_count; ++g) {
-    const int first = g * strokes.cycles / g_count, last = (g + 1) * strokes.cycles / g_count - 1;
-    fits.push_back(fitOnCycles(grid, strokes, config, first, last));
-    if (fits.back().updates == 0 || fits.back().parameters.size() != n) return found;
+  std::vector<HydraulicEstimate> fits(g_count);
+  parallelFor(static_cast<std::size_t>(g_count), jobs, [&](std::size_t g) {
+    const int first = static_cast<int>(g) * strokes.cycles / g_count;
+    const int last = (static_cast<int>(g) + 1) * strokes.cycles / g_count - 1;
+    fits[g] = fitOnCycles(grid, strokes, config, first, last);
+  });
+  for (const auto& f : fits) {
+    if (f.updates == 0 || f.parameters.size() != n) return found;
   }
   const boost::math::chi_squared_distribution<double> chi_square(g_count - 1);
   for (std::size_t k = 0; k < n; ++k) {
@@ -248,7 +253,7 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
                              "it down (more varied strokes would), or an effect the model lacks pulls it");
       }
       tell("fitting each group of cycles alone (does a parameter change over the recording?)");
-      for (const auto& spread : parametersThatVaryOverTheRecording(grid_, r.strokes, config_, r.model)) {
+      for (const auto& spread : parametersThatVaryOverTheRecording(grid_, r.strokes, config_, r.model, 10, jobs_)) {
         r.warnings.push_back(spread);
       }
     }

@@ -84,11 +84,12 @@ constexpr double kVariationScatter = 4.0;
 /// its 1 - kVariationSignificance point, with sqrt(Q / (G-1)) above kVariationScatter, means they disagree
 /// more than their noise explains. Worded as a drift when a step between the first and the second half of
 /// the groups explains most of Q (the plant changed while it was recorded), else as stroke-to-stroke
-/// variation (an effect the model lacks).
+/// variation (an effect the model lacks). The groups are fitted on up to `jobs` threads (0: one per core).
 std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<GridSample>& grid,
                                                              const StrokeSegmentation& strokes,
                                                              const IdentificationConfig& config,
-                                                             const HydraulicEstimate& estimate, int groups = 10);
+                                                             const HydraulicEstimate& estimate, int groups = 10,
+                                                             int jobs = 1);
 
 /// The offline analysis on the same core as the node: messages in, the pipeline's uniform samples kept, and
 /// at the end the whole-recording fit, the free-run comparison, the effect ranking and the valve sweep.
