@@ -63,15 +63,38 @@ class Fields {
   std::vector<std::uint8_t> bytes_;
 };
 
-std::vector<std::uint8_t> bagHeader(std::uint64_t index_position, std::uint32_t connections, std::uint32_t chunks) {
-  return Fields()
-      .op(kBagHeader)
-      .uint64("index_pos", index_position)
-      .uint32("conn_count", connections)
-      .uint32("chunk_count", chunks)
-      .bytes();
+// One record (lengths, header, data) appended to `out`: a chunk's records are gathered in memory.
+void appendRecord(std::vector<std::uint8_t>* out, const std::vector<std::uint8_t>& header,
+                  const std::vector<std::uint8_t>& data) {
+  appendUint32(out, static_cast<std::uint32_t>(header.size()));
+  appendBytes(out, header.data(), header.size());
+  appendUint32(out, static_cast<std::uint32_t>(data.size()));
+  appendBytes(out, data.data(), data.size());
 }
 }  // namespace
+
+BagStreamWriter::Record BagStreamWriter::connectionRecord(std::uint32_t id) const {
+  const Connection& c = connections_[id];
+  return {Fields().op(kConnection).uint32("conn", id).text("topic", c.topic).bytes(),
+          Fields()
+              .text("topic", c.topic)
+              .text("type", c.datatype)
+              .text("md5sum", c.md5sum)
+              .text("message_definition", c.definition)
+              .bytes()};
+}
+
+void BagStreamWriter::putBagHeader(std::uint64_t index_position) {
+  const std::vector<std::uint8_t> header = Fields()
+                                               .op(kBagHeader)
+                                               .uint64("index_pos", index_position)
+                                               .uint32("conn_count", static_cast<std::uint32_t>(connections_.size()))
+                                               .uint32("chunk_count", static_cast<std::uint32_t>(chunks_.size()))
+                                               .bytes();
+  // Padded to a fixed length, so that close() can write it again in place with the index's position.
+  const std::vector<std::uint8_t> padding(kBagHeaderLength - header.size() - 8, ' ');
+  putRecord(header, padding.data(), padding.size());
+}
 
 BagStreamWriter::BagStreamWriter(const std::string& path) : path_(path), file_buffer_(1 << 20) {
   file_ = std::fopen(path.c_str(), "wb");
@@ -79,10 +102,7 @@ BagStreamWriter::BagStreamWriter(const std::string& path) : path_(path), file_bu
   std::setvbuf(file_, file_buffer_.data(), _IOFBF, file_buffer_.size());
   chunk_.reserve(kChunkThreshold + 64 * 1024);
   put(kMagic, sizeof(kMagic) - 1);
-  // The header is written again at close() with the index's position; padded so that it keeps its size.
-  const std::vector<std::uint8_t> header = bagHeader(0, 0, 0);
-  const std::vector<std::uint8_t> padding(kBagHeaderLength - header.size() - 8, ' ');
-  putRecord(header, padding.data(), padding.size());
+  putBagHeader(0);  // written again at close() with the index's position
 }
 
 BagStreamWriter::~BagStreamWriter() {
@@ -112,19 +132,8 @@ std::uint8_t* BagStreamWriter::beginMessage(std::uint32_t connection, const ros:
   if (!recorded_in_file_[connection]) {
     // The connection record goes into the chunk where the connection first appears (as rosbag does), and
     // again into the index at the end.
-    const Connection& c = connections_[connection];
-    const std::vector<std::uint8_t> header =
-        Fields().op(kConnection).uint32("conn", connection).text("topic", c.topic).bytes();
-    const std::vector<std::uint8_t> data = Fields()
-                                               .text("topic", c.topic)
-                                               .text("type", c.datatype)
-                                               .text("md5sum", c.md5sum)
-                                               .text("message_definition", c.definition)
-                                               .bytes();
-    appendUint32(&chunk_, static_cast<std::uint32_t>(header.size()));
-    appendBytes(&chunk_, header.data(), header.size());
-    appendUint32(&chunk_, static_cast<std::uint32_t>(data.size()));
-    appendBytes(&chunk_, data.data(), data.size());
+    const Record record = connectionRecord(connection);
+    appendRecord(&chunk_, record.header, record.data);
     recorded_in_file_[connection] = true;
   }
   if (chunk_index_.empty()) {
@@ -191,16 +200,8 @@ void BagStreamWriter::close() {
   writeChunk();
   const std::uint64_t index_position = position_;
   for (std::uint32_t id = 0; id < connections_.size(); ++id) {
-    const Connection& c = connections_[id];
-    const std::vector<std::uint8_t> header =
-        Fields().op(kConnection).uint32("conn", id).text("topic", c.topic).bytes();
-    const std::vector<std::uint8_t> data = Fields()
-                                               .text("topic", c.topic)
-                                               .text("type", c.datatype)
-                                               .text("md5sum", c.md5sum)
-                                               .text("message_definition", c.definition)
-                                               .bytes();
-    putRecord(header, data.data(), data.size());
+    const Record record = connectionRecord(id);
+    putRecord(record.header, record.data.data(), record.data.size());
   }
   for (const ChunkInfo& chunk : chunks_) {
     std::vector<std::uint8_t> data;
@@ -219,13 +220,10 @@ void BagStreamWriter::close() {
     putRecord(header, data.data(), data.size());
   }
   // The header again, now with the index's position, over the placeholder.
-  const std::vector<std::uint8_t> header = bagHeader(index_position, static_cast<std::uint32_t>(connections_.size()),
-                                                     static_cast<std::uint32_t>(chunks_.size()));
-  const std::vector<std::uint8_t> padding(kBagHeaderLength - header.size() - 8, ' ');
   if (std::fseek(file_, static_cast<long>(sizeof(kMagic) - 1), SEEK_SET) != 0) {
     throw std::runtime_error("cannot complete " + path_ + ": " + std::strerror(errno));
   }
-  putRecord(header, padding.data(), padding.size());
+  putBagHeader(index_position);
   if (std::fflush(file_) != 0 || std::ferror(file_)) {
     throw std::runtime_error("cannot write " + path_ + ": " + std::strerror(errno));
   }

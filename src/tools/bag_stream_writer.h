@@ -47,6 +47,9 @@ class BagStreamWriter {
   struct Connection {
     std::string topic, datatype, md5sum, definition;
   };
+  struct Record {
+    std::vector<std::uint8_t> header, data;
+  };
   struct IndexEntry {
     ros::Time time;
     std::uint32_t offset;  // of the message record within the chunk's data
@@ -62,6 +65,9 @@ class BagStreamWriter {
   std::uint8_t* beginMessage(std::uint32_t connection, const ros::Time& time, std::uint32_t size);
   void endMessage();
   void writeChunk();
+  /// The connection's record, written into the chunk where it first appears and again into the index.
+  Record connectionRecord(std::uint32_t id) const;
+  void putBagHeader(std::uint64_t index_position);
   void put(const void* data, std::size_t size);
   void putRecord(const std::vector<std::uint8_t>& header, const void* data, std::size_t size);
 

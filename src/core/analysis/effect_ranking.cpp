@@ -1,7 +1,6 @@
 #include "die_cushion_ident/core/analysis/effect_ranking.h"
 
 #include <algorithm>
-#include <future>
 #include <climits>
 #include <cmath>
 #include <cstdio>

@@ -132,7 +132,7 @@ void HydraulicIdentifier::refreshLinearisationPoint(ParameterVector physical) {
   linearisation_point_ = physical;
 }
 
-double HydraulicIdentifier::capacitanceAt(const RegressionRow& row) const {
+HydraulicSignals HydraulicIdentifier::signalsAt(const RegressionRow& row) const {
   HydraulicSignals s;
   s.t = row.t;
   s.p = row.p;
@@ -140,7 +140,11 @@ double HydraulicIdentifier::capacitanceAt(const RegressionRow& row) const {
   s.u = row.u;
   s.y = row.y;
   s.V = model_.chamberVolume(row.x, linearisation_point_(HydraulicModel::kDeadVolume));
-  return model_.capacitance(s, linearisation_point_);
+  return s;
+}
+
+double HydraulicIdentifier::capacitanceAt(const RegressionRow& row) const {
+  return model_.capacitance(signalsAt(row), linearisation_point_);
 }
 
 bool HydraulicIdentifier::push(const GridSample& s) {
@@ -192,15 +196,8 @@ bool HydraulicIdentifier::identificationStep() {
   // The score with the a-posteriori residual: the a-priori one carries the start-up transient.
   scores_.add(phi * (row_.z / flow_scale_ - phi.dot(rls_->parameters())));
   if (row_noise_per_variance_ > 0.0) {
-    HydraulicSignals signals;
-    signals.t = row_.t;
-    signals.p = row_.p;
-    signals.x = row_.x;
-    signals.u = row_.u;
-    signals.y = row_.y;
-    signals.V = model_.chamberVolume(row_.x, linearisation_point_(HydraulicModel::kDeadVolume));
     double a[kMaxParameters], g[kMaxParameters];
-    model_.regressionColumns(signals, linearisation_point_, a, g);
+    model_.regressionColumns(signalsAt(row_), linearisation_point_, a, g);
     ParameterVector capacitive(n);
     for (int j = 0; j < n; ++j) capacitive(j) = a[j] * scale_(j) / flow_scale_;
     column_noise_ = config_.forgetting_factor * column_noise_ +

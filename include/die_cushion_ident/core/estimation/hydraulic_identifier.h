@@ -89,6 +89,8 @@ class HydraulicIdentifier {
   void refreshLinearisationPoint();
   void refreshLinearisationPoint(ParameterVector physical);
   bool identificationStep();
+  /// The model's signals at a row (its measured p, x, u, y; the chamber volume at the linearisation point).
+  HydraulicSignals signalsAt(const RegressionRow& row) const;
   /// The normalised RLS coefficients with the pressure noise's bias removed: the noise in the capacitive
   /// columns (errors in variables) adds its covariance to the normal equations, so the least-squares solution
   /// is (I - sigma_p^2 P C)^-1 times the RLS one (doc/equations.md, "Pressure noise in the capacitive columns").
