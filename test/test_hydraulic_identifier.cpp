@@ -6,6 +6,7 @@
 #include <random>
 
 #include <climits>
+#include <limits>
 
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/analysis/model_assessment.h"
@@ -260,16 +261,17 @@ TEST(VolumeBalanceRegressor, AValveModelSetLaterActsAsIfBuiltWithIt) {
 
 // The press's 1 kHz pressure controller answers the pressure noise by dithering the spool around 0 while it
 // holds pressure, faster than the 2 ms grid: within one interval the spool drains through one port and
-// fills through the other. The grid's drain and supply parts of the spool (GridSample::y_drain, y_supply)
-// give that interval's flow; y at the grid point alone picks one port for the whole interval. An exact
-// spool, so that only the dither is at work; the widest windows of the settings study, where it showed most.
-// Measured (16 seeds x 3 cycles): dead volume -0.57 % with the parts, -0.87 % without; the paired difference
-// is steady at 0.3 % (-0.8 and -1.1 % over 24 seeds with the sensors' own pressure noise off).
-TEST(VolumeBalanceRegressor, TheSpoolsPartsWithinAnIntervalRemoveTheDithersDeadVolumeBias) {
+// fills through the other, and the grid sees every other command. Two things carry the interval: the
+// spool's drain and supply parts (GridSample::y_drain, y_supply), which give the flow where the spool
+// crossed 0 outside its noise band, and the command's interval mean (GridSample::u_mean), on which the
+// valve model judges the port side inside it. An exact spool, so that only the dither is at work; the
+// widest windows of the settings study, where it showed most. Measured (16 seeds x 3 cycles, dead volume):
+// +0.27 % with both, -0.52 % without the command's mean, -0.82 % without either.
+TEST(VolumeBalanceRegressor, TheIntervalsSpoolPartsAndCommandMeanRemoveTheDithersDeadVolumeBias) {
   IdentificationConfig config;
   config.moving_average_width = 51;
   config.derivative_width = 35;
-  double with_parts = 0.0, without_parts = 0.0;
+  double with_both = 0.0, without_command_mean = 0.0, without_either = 0.0;
   const int seeds = 16;
   for (int seed = 0; seed < seeds; ++seed) {
     SimulatorConfig plant;
@@ -281,18 +283,55 @@ TEST(VolumeBalanceRegressor, TheSpoolsPartsWithinAnIntervalRemoveTheDithersDeadV
     std::vector<GridSample> grid =
         simulateGrid(simulator, 3 * simulator.program().cycleDuration(), config.resamplerConfig());
     const double truth = simulator.trueParameter("dead_volume");
-    with_parts += estimateOf(fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX), "dead_volume") /
-                  truth - 1.0;
+    const auto error = [&]() {
+      return estimateOf(fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX), "dead_volume") /
+                 truth - 1.0;
+    };
+    with_both += error();
+    for (auto& g : grid) g.u_mean = std::numeric_limits<float>::quiet_NaN();
+    without_command_mean += error();
     for (auto& g : grid) g.y_drain = g.y_supply = std::numeric_limits<float>::quiet_NaN();
-    without_parts +=
-        estimateOf(fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX), "dead_volume") / truth - 1.0;
+    without_either += error();
   }
-  with_parts /= seeds;
-  without_parts /= seeds;
-  std::printf("dead volume bias with the spool's parts %+.2f %%, without %+.2f %%\n", 100 * with_parts,
-              100 * without_parts);
-  EXPECT_LT(std::abs(with_parts), 0.008);
-  EXPECT_GT(with_parts - without_parts, 0.002) << "the parts no longer move the bias: revisit doc/equations.md";
+  with_both /= seeds;
+  without_command_mean /= seeds;
+  without_either /= seeds;
+  std::printf("dead volume bias with the interval's spool parts and command mean %+.2f %%, without the command "
+              "mean %+.2f %%, without either %+.2f %%\n",
+              100 * with_both, 100 * without_command_mean, 100 * without_either);
+  EXPECT_LT(std::abs(with_both), 0.005);
+  EXPECT_GT(with_both - without_command_mean, 0.004) << "the command's mean no longer moves the bias";
+  EXPECT_GT(without_command_mean - without_either, 0.002) << "the spool's parts no longer move the bias";
+}
+
+// All of the simulated press's noise at once (spool 0.002, pressure 0.2 bar, position, jitter) at the
+// settings study's widest windows, where the seeds scatter most (3.4 % a run): the dead volume's bias over
+// 96 seeds must stay inside the 1 % that issue 13 asks for. Measured: -0.40 +- 0.32 % (384 seeds: -0.24 +-
+// 0.17 %); -1.44 % before the valve model saw the command's interval mean and judged the side with the quiet
+// samples' long offset, -2.0 % before the spool's parts.
+TEST(VolumeBalanceRegressor, TheWidestWindowsDeadVolumeIsUnbiasedUnderAllNoiseSources) {
+  IdentificationConfig config;
+  config.moving_average_width = 51;
+  config.derivative_width = 35;
+  const int seeds = 96;
+  double sum = 0.0, sum_squares = 0.0;
+  for (int seed = 0; seed < seeds; ++seed) {
+    SimulatorConfig plant;
+    plant.seed = 1000 + seed;
+    DieCushionSimulator simulator(plant);
+    const std::vector<GridSample> grid =
+        simulateGrid(simulator, 3 * simulator.program().cycleDuration(), config.resamplerConfig());
+    const double error =
+        estimateOf(fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX), "dead_volume") /
+            simulator.trueParameter("dead_volume") - 1.0;
+    sum += error;
+    sum_squares += error * error;
+  }
+  const double bias = sum / seeds;
+  const double standard_error = std::sqrt((sum_squares / seeds - bias * bias) / (seeds - 1));
+  std::printf("dead volume bias at b 51 / d 35, all noise sources: %+.2f +- %.2f %%\n", 100 * bias,
+              100 * standard_error);
+  EXPECT_LT(std::abs(bias), 0.009);
 }
 
 // White noise on the recorded pressure enters the capacitive columns (errors in variables) and pulls their

@@ -278,3 +278,42 @@ TEST(UniformResampler, CarriesTheSpoolsDrainAndSupplyPartsOverEachInterval) {
   ASSERT_FALSE(none.empty());
   for (const auto& g : none) EXPECT_TRUE(std::isnan(g.y_drain) && std::isnan(g.y_supply));
 }
+
+// A 1 kHz controller on the 2 ms grid: u is the command in force at the grid point, u_mean the mean of the
+// held commands over [t - 1 ms, t + 1 ms], the one the valve model needs to see the others too. Measured
+// spool or not, it is the command's; a gap in the valve stream leaves it NaN.
+TEST(UniformResampler, CarriesTheHeldCommandsMeanOverEachInterval) {
+  for (const double spool : {0.1, kNaN}) {
+    UniformResampler r({});
+    std::vector<GridSample> out;
+    for (int k = 0; k < 200; ++k) {
+      const double t = 1e-3 * k;
+      r.push(InputStream::kPressure, {t, 50e5, kNaN}, &out);
+      r.push(InputStream::kPosition, {t, 0.1, 0.0}, &out);
+      r.push(InputStream::kValve, {t, k % 2 == 0 ? 1.0 : 3.0, spool}, &out);  // 1 V on the grid's points
+    }
+    ASSERT_GT(out.size(), 90u);
+    for (std::size_t i = 1; i < out.size(); ++i) {
+      EXPECT_EQ(out[i].u, 1.0f);
+      // [t - 1 ms, t): 3 V; [t, t + 1 ms): 1 V.
+      EXPECT_NEAR(out[i].u_mean, 2.0, 1e-6) << out[i].t;
+    }
+  }
+  // Commands at 250 Hz, held 4 ms: the mean over the interval straddling a change weighs each by its time.
+  UniformResampler slow({});
+  std::vector<GridSample> out;
+  for (int k = 0; k < 200; ++k) {
+    const double t = 1e-3 * k;
+    slow.push(InputStream::kPressure, {t, 50e5, kNaN}, &out);
+    slow.push(InputStream::kPosition, {t, 0.1, 0.0}, &out);
+    if (k % 4 == 0) slow.push(InputStream::kValve, {t, static_cast<double>(k / 4), 0.1}, &out);
+  }
+  ASSERT_GT(out.size(), 40u);
+  for (std::size_t i = 1; i + 2 < out.size(); ++i) {
+    const double t = out[i].t;
+    const double held = std::floor(t / 4e-3 + 1e-9);
+    // Points at a change (t = 4 ms n) have half the interval on each command; the others sit inside one.
+    const bool at_change = std::abs(t / 4e-3 - std::round(t / 4e-3)) < 1e-6;
+    EXPECT_NEAR(out[i].u_mean, at_change ? held - 0.5 : held, 1e-5) << t;
+  }
+}

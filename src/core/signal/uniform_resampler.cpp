@@ -225,6 +225,23 @@ bool UniformResampler::spoolParts(double from, double to, double* drain, double*
   return true;
 }
 
+bool UniformResampler::commandMean(double from, double to, double* mean) const {
+  const auto& buffer = channels_[static_cast<int>(InputStream::kValve)].buffer;
+  double integral = 0.0, covered = 0.0;
+  for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
+    const StreamSample& a = buffer[i];
+    const StreamSample& b = buffer[i + 1];
+    const double span = std::min(b.stamp, to) - std::max(a.stamp, from);
+    if (!(span > 0.0)) continue;
+    if (b.stamp - a.stamp > config_.max_gap) return false;
+    integral += a.first * span;
+    covered += span;
+  }
+  if (!(covered > 0.0)) return false;
+  *mean = integral / covered;
+  return true;
+}
+
 void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
   const double dt = config_.sample_period;
   if (!grid_started_) {
@@ -297,6 +314,10 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     if (std::isfinite(g.y) && spoolParts(t - 0.5 * dt, t + 0.5 * dt, &drain, &supply)) {
       g.y_drain = static_cast<float>(drain);
       g.y_supply = static_cast<float>(supply);
+    }
+    double command = kNaN;
+    if (std::isfinite(g.u) && commandMean(t - 0.5 * dt, t + 0.5 * dt, &command)) {
+      g.u_mean = static_cast<float>(command);
     }
     g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
     g.discontinuity = pending_discontinuity_;

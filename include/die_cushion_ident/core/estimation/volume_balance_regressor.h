@@ -69,9 +69,9 @@ class VolumeBalanceRegressor {
   SlidingWindowSum increment_window_;
   MovingAverageFilter window_average_;
   // The last 2 side_neighbours_ + 1 samples: the middle one goes on. Within 3 noise stds of the port's kink
-  // its port side is judged by the valve model's spool, corrected by the neighbours' mean measured-minus-
-  // modelled spool, so that its own spool noise does not choose the side (doc/equations.md, "Spool noise at
-  // the port's kink").
+  // its port side is judged by the valve model's spool, corrected by the measured-minus-modelled spool of
+  // earlier quiet samples (or, until there are enough, of its neighbours), so that its own spool noise does
+  // not choose the side (doc/equations.md, "Spool noise at the port's kink").
   struct Pending {
     GridSample sample;
     bool usable = false;
@@ -84,6 +84,10 @@ class VolumeBalanceRegressor {
   WhiteNoiseEstimator spool_noise_;
   SampledServoValve spool_model_;
   bool spool_model_started_ = false;
+  // The valve model's offset from the measured spool where the spool is quiet near the kink (a null offset,
+  // what the model misses at rest), exponentially weighted over about kQuietOffsetMemory such samples.
+  double quiet_offset_sum_ = 0.0;
+  double quiet_offset_weight_ = 0.0;
   int pending_count_ = 0;
   int pending_head_ = 0;
   Node nodes_[4];

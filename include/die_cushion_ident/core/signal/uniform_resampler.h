@@ -25,8 +25,8 @@ struct StreamSample {
 /// One sample on the uniform grid. Channels of a stream that was stale or inside a gap are NaN and
 /// `complete` is false; `discontinuity` marks the first sample after the grid was restarted. Streams are
 /// interpolated linearly, except the valve voltage u, which is held from its stamp on (the amplifier holds
-/// it). The channels are stored in single precision (40 bytes a sample instead of 72: an hour of grid is
-/// 72 MB, not 130): its 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the
+/// it). The channels are stored in single precision (48 bytes a sample instead of 80: an hour of grid is
+/// 86 MB, not 144): its 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the
 /// sensors' noise; time stays double (microseconds of a Unix stamp need 16 digits).
 struct GridSample {
   double t = 0.0;
@@ -38,6 +38,11 @@ struct GridSample {
   /// the interval needs both parts, which y at t alone cannot give (doc/equations.md).
   float y_drain = std::numeric_limits<float>::quiet_NaN();
   float y_supply = std::numeric_limits<float>::quiet_NaN();
+  /// The mean of the held command over the same interval [t - T/2, t + T/2]; NaN where the valve stream
+  /// has a gap there. u is the command in force at t alone: a controller faster than the grid issues
+  /// others in between (every other one of a 1 kHz controller on the 2 ms grid), and a valve model run
+  /// on u alone misses them (doc/equations.md, "The spool crossing 0 between grid points").
+  float u_mean = std::numeric_limits<float>::quiet_NaN();
   bool complete = true;
   bool discontinuity = false;
 };
@@ -123,6 +128,9 @@ class UniformResampler {
   /// The means of max(y, 0) and min(y, 0) over [from, to] of the line through the valve messages; false
   /// where the spool is not measured or the interval is not covered.
   bool spoolParts(double from, double to, double* drain, double* supply) const;
+  /// The mean over [from, to] of the valve command, each held from its stamp to the next message's; false
+  /// where the interval is not covered or lies in a gap.
+  bool commandMean(double from, double to, double* mean) const;
   /// How far past a grid point a stream must have spoken before the point is emitted: the valve half a
   /// sample, for the spool's mean over the interval around the point.
   double lead(int stream) const;
