@@ -334,4 +334,38 @@ TEST_F(RecordingEdges, ASweepFromAContinuousCommandNeedsNoHoldCorrection) {
   EXPECT_LT(held.summary["valve"]["dead_time"].as<double>(), 0.002 - 3e-4);
 }
 
+// The valve reported at 250 Hz while its amplifier takes the 1 kHz commands: the recording cannot tell how
+// long each reported command was held, and the default (one message interval, 4 ms) puts the valve at
+// 112 Hz instead of 80. analyze_bag says so, with the fit under each assumption and the key that decides;
+// with the amplifier's period configured it is silent and right.
+TEST_F(RecordingEdges, AValveReportedSlowerThanItsAmplifierUpdatesIsFlaggedWithBothFits) {
+  const std::string bag = kWork + "/slow_valve.bag";
+  ASSERT_EQ(run(kTools + "/simulate_bag " + bag + " --cycles 1 --sweep --rates 1000,1000,250 --seed 9").status, 0);
+  const auto hold_warning = [](const Analysis& a) {
+    for (const auto& w : a.summary["warnings"]) {
+      const std::string text = w.as<std::string>();
+      if (text.find("valve_command_hold") != std::string::npos) return text;
+    }
+    return std::string();
+  };
+  const Analysis assumed = analyze(bag, configFile(SensorConfiguration()), kWork + "/slow_valve_default");
+  ASSERT_TRUE(assumed.summary["valve"]) << assumed.output;
+  const std::string warning = hold_warning(assumed);
+  EXPECT_NE(warning.find("every 4 ms"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("a continuous command (valve_command_hold: 0): 7"), std::string::npos)
+      << "the other assumption's fit, near the true 80 Hz: " << warning;
+  const std::string config = kWork + "/slow_valve.yaml";
+  std::ofstream(config) << "piston_area: 0.05\nstroke_length: 0.25\nsupply_pressure: 120e5\nvalve_command_hold: 0.001\n";
+  const Analysis told = analyze(bag, config, kWork + "/slow_valve_told");
+  ASSERT_TRUE(told.summary["valve"]) << told.output;
+  EXPECT_EQ(hold_warning(told), "");
+  EXPECT_NEAR(told.summary["valve"]["natural_frequency"].as<double>(), 80.0, 3.0);
+  EXPECT_NEAR(told.summary["valve"]["damping"].as<double>(), 0.7, 0.03);
+  EXPECT_NEAR(told.summary["valve"]["dead_time"].as<double>(), 0.002, 2e-4);
+  // The default sensor set (valve reported at its 1 kHz command rate, sweep up to 160 Hz) is not flagged.
+  const std::string fast = kWork + "/fast_valve.bag";
+  ASSERT_EQ(run(kTools + "/simulate_bag " + fast + " --cycles 1 --sweep --seed 9").status, 0);
+  EXPECT_EQ(hold_warning(analyze(fast, configFile(SensorConfiguration()), kWork + "/fast_valve")), "");
+}
+
 }  // namespace

@@ -101,6 +101,44 @@ void EstimateSeries::add(const HydraulicEstimate& e) {
   equation_error_.push_back(static_cast<float>(e.equation_error_rms));
 }
 
+// A valve reported much slower than the sweep's frequencies: the points depend on how long the amplifier
+// held each command (the default assumes one message interval; an amplifier updating at 1 kHz but reported
+// at 250 Hz held it a quarter of that), and the recording cannot tell which. A press's valve reported at
+// 250 Hz gave 112 Hz and damping 0.61 under the default, 78.5 Hz and 0.69 with the true 1 ms hold: both
+// fits go to the user, with the key that decides between them.
+void OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep,
+                                                      std::vector<std::string>* warnings) const {
+  if (!sweep.fit.success || sweep.points.empty() || !(sweep.message_interval > 0.0)) return;
+  double highest = 0.0;
+  for (const auto& p : sweep.points) highest = std::max(highest, p.frequency);
+  constexpr double kMessagesPerPeriod = 4.0;
+  if (highest * sweep.message_interval * kMessagesPerPeriod <= 1.0) return;
+  RecordedSweepOptions continuous;
+  continuous.command_hold = 0.0;
+  const RecordedSweep alternative = analyzeRecordedSweep(valve_, continuous);
+  char text[700];
+  const ServoValveParameters& held = sweep.fit.parameters;
+  if (alternative.fit.success) {
+    const ServoValveParameters& other = alternative.fit.parameters;
+    std::snprintf(text, sizeof(text),
+                  "the valve messages come every %.3g ms, fewer than %.0f per period of the highest analysed sweep "
+                  "frequency (%.0f Hz): the valve fit depends on how long the amplifier held each command, which the "
+                  "recording cannot tell. Held one message interval (the default): %.1f Hz, damping %.2f, dead time "
+                  "%.2f ms; a continuous command (valve_command_hold: 0): %.1f Hz, damping %.2f, dead time %.2f ms. "
+                  "Set valve_command_hold to the amplifier's update period",
+                  1e3 * sweep.message_interval, kMessagesPerPeriod, highest, held.natural_frequency, held.damping,
+                  1e3 * held.dead_time, other.natural_frequency, other.damping, 1e3 * other.dead_time);
+  } else {
+    std::snprintf(text, sizeof(text),
+                  "the valve messages come every %.3g ms, fewer than %.0f per period of the highest analysed sweep "
+                  "frequency (%.0f Hz): the valve fit (%.1f Hz, damping %.2f) assumes the amplifier held each "
+                  "command one message interval, which the recording cannot tell; set valve_command_hold to the "
+                  "amplifier's update period",
+                  1e3 * sweep.message_interval, kMessagesPerPeriod, highest, held.natural_frequency, held.damping);
+  }
+  warnings->push_back(text);
+}
+
 void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
   ++messages_;
   pipeline_.push(stream, sample);
@@ -322,6 +360,7 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
     RecordedSweepOptions options;
     options.command_hold = config_.valve_command_hold;  // NaN: one valve message interval
     RecordedSweep sweep = analyzeRecordedSweep(valve_, options);
+    if (!std::isfinite(config_.valve_command_hold)) warnIfTheHoldDecidesTheValveFit(sweep, &r.warnings);
     if (!sweep.segments.empty()) r.valve = std::move(sweep);
   }
 }

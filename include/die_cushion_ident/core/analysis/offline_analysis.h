@@ -131,6 +131,8 @@ class OfflineAnalysis {
   EstimateSeries estimates_;
   SweepCandidateFilter valve_filter_;
   void endInput();  // flushes the pipeline once
+  // Warns where the valve messages are too slow for the recording to tell the amplifier's command hold.
+  void warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep, std::vector<std::string>* warnings) const;
 
   std::uint64_t messages_ = 0;
   bool flushed_ = false;
