@@ -28,7 +28,8 @@ namespace {
 const char* kUsage =
     "usage: study_settings [--config FILE] [--from-summary SUMMARY] --out DIR [--seeds N] [--cycles N] [--jobs N]\n"
     "  The paper's study of the filter widths and the sampling time on the simulator configured as your press\n"
-    "  (an analyze_bag summary.yaml gives its parameters, effects and pressure noise; else the config's).\n";
+    "  (an analyze_bag summary.yaml gives its parameters, effects and pressure noise; else the config's).\n"
+    "  Defaults: 64 seeds x 3 cycles per setting (every bias known to about 0.4 %), all cores.\n";
 
 [[noreturn]] void fail(int code, const std::string& message) {
   std::cerr << "study_settings: " << message << "\n";
