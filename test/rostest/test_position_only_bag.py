@@ -38,7 +38,7 @@ class PositionOnlyBag(unittest.TestCase):
             rospy.Subscriber(ns + "model_comparison", ModelComparison, cls._on_comparison, ns)
         cls.directory = tempfile.mkdtemp(prefix="position_only_bag_")
         cls.bag = os.path.join(cls.directory, "press.bag")
-        subprocess.run([tool("simulate_bag"), cls.bag, "--cycles", "12", "--plant-effects", "leakage",
+        subprocess.run([tool("simulate_bag"), cls.bag, "--cycles", "8", "--plant-effects", "leakage",
                         "--seed", "21", "--no-velocity", "--joints", "ram,cushion,blank_holder",
                         "--stamp-offsets", "0,0.01,0"], check=True)
         cls.player = subprocess.Popen(["rosbag", "play", "--clock", "--quiet", cls.bag])
@@ -57,7 +57,7 @@ class PositionOnlyBag(unittest.TestCase):
         return self.diagnostics.get(ns, name)
 
     def test_comparison_and_adequacy_run_on_position_only_data(self):
-        # The bag lasts 31 s: wait (in wall time, the bag's clock may not have started) for the end.
+        # The bag lasts 21 s: wait (in wall time, the bag's clock may not have started) for the end.
         self.player.wait(timeout=120)
         time.sleep(1.0)  # wall time: the bag's clock has stopped
         for ns in NAMESPACES:
