@@ -22,6 +22,14 @@ std::vector<GridSample> feedLinear(UniformResampler& r, double t0, double t1, do
   }
   return out;
 }
+// Pressure and position at rest at `t`; the valve message (voltage, spool) only when `valve` is set.
+void pushAtRest(UniformResampler& r, double t, bool valve, double voltage, double spool,
+                std::vector<GridSample>* out) {
+  r.push(InputStream::kPressure, {t, 50e5, kNaN}, out);
+  r.push(InputStream::kPosition, {t, 0.1, 0.0}, out);
+  if (valve) r.push(InputStream::kValve, {t, voltage, spool}, out);
+}
+
 }  // namespace
 
 TEST(UniformResampler, RejectsInvalidConfiguration) {
@@ -247,9 +255,7 @@ TEST(UniformResampler, CarriesTheSpoolsDrainAndSupplyPartsOverEachInterval) {
   std::vector<GridSample> out;
   for (int k = 0; k < 200; ++k) {
     const double t = 1e-3 * k;
-    r.push(InputStream::kPressure, {t, 50e5, kNaN}, &out);
-    r.push(InputStream::kPosition, {t, 0.1, 0.0}, &out);
-    r.push(InputStream::kValve, {t, 0.1, k % 2 == 0 ? -0.2 : 0.2}, &out);  // -0.2 on the grid's points
+    pushAtRest(r, t, true, 0.1, k % 2 == 0 ? -0.2 : 0.2, &out);  // -0.2 on the grid's points
   }
   ASSERT_GT(out.size(), 90u);
   for (std::size_t i = 1; i < out.size(); ++i) {
@@ -271,9 +277,7 @@ TEST(UniformResampler, CarriesTheSpoolsDrainAndSupplyPartsOverEachInterval) {
   std::vector<GridSample> none;
   for (int k = 0; k < 20; ++k) {
     const double t = 1e-3 * k;
-    unmeasured.push(InputStream::kPressure, {t, 50e5, kNaN}, &none);
-    unmeasured.push(InputStream::kPosition, {t, 0.1, 0.0}, &none);
-    unmeasured.push(InputStream::kValve, {t, 0.1, kNaN}, &none);
+    pushAtRest(unmeasured, t, true, 0.1, kNaN, &none);
   }
   ASSERT_FALSE(none.empty());
   for (const auto& g : none) EXPECT_TRUE(std::isnan(g.y_drain) && std::isnan(g.y_supply));
@@ -288,9 +292,7 @@ TEST(UniformResampler, CarriesTheHeldCommandsMeanOverEachInterval) {
     std::vector<GridSample> out;
     for (int k = 0; k < 200; ++k) {
       const double t = 1e-3 * k;
-      r.push(InputStream::kPressure, {t, 50e5, kNaN}, &out);
-      r.push(InputStream::kPosition, {t, 0.1, 0.0}, &out);
-      r.push(InputStream::kValve, {t, k % 2 == 0 ? 1.0 : 3.0, spool}, &out);  // 1 V on the grid's points
+      pushAtRest(r, t, true, k % 2 == 0 ? 1.0 : 3.0, spool, &out);  // 1 V on the grid's points
     }
     ASSERT_GT(out.size(), 90u);
     for (std::size_t i = 1; i < out.size(); ++i) {
@@ -304,9 +306,7 @@ TEST(UniformResampler, CarriesTheHeldCommandsMeanOverEachInterval) {
   std::vector<GridSample> out;
   for (int k = 0; k < 200; ++k) {
     const double t = 1e-3 * k;
-    slow.push(InputStream::kPressure, {t, 50e5, kNaN}, &out);
-    slow.push(InputStream::kPosition, {t, 0.1, 0.0}, &out);
-    if (k % 4 == 0) slow.push(InputStream::kValve, {t, static_cast<double>(k / 4), 0.1}, &out);
+    pushAtRest(slow, t, k % 4 == 0, static_cast<double>(k / 4), 0.1, &out);
   }
   ASSERT_GT(out.size(), 40u);
   for (std::size_t i = 1; i + 2 < out.size(); ++i) {
