@@ -136,6 +136,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   out << YAML::Key << "model" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "effects" << YAML::Value << YAML::Flow << r.effects;
   out << YAML::Key << "regression_form" << YAML::Value << regressionFormName(config.regression_form);
+  out << YAML::Key << "valve_model" << YAML::Value << r.valve_model_source;
   // Only what was computed: no initial values shown as estimates, no 0 for an error that was not measured.
   out << YAML::Key << "parameters" << YAML::Value;
   emitParameters(out, r.model.updates > 0 ? r.model.parameters : std::vector<IdentifiedParameter>());

@@ -51,6 +51,9 @@ struct OfflineResult {
   EffectRankingResult ranking;
   EstimateSeries estimates;
   std::optional<RecordedSweep> valve;  ///< present when the recording holds a sine sweep
+  /// Whose valve model judged the port side near the spool's kink in the fits: "configured", or "sweep"
+  /// (the recording's own, when its fit succeeded and its command hold is known).
+  std::string valve_model_source = "configured";
   std::vector<StepResponse> step_responses;  ///< valve command steps at rest found in the recording
   std::array<StreamHealth, kInputStreamCount> health;
   std::uint64_t restarts = 0;
@@ -131,8 +134,11 @@ class OfflineAnalysis {
   EstimateSeries estimates_;
   SweepCandidateFilter valve_filter_;
   void endInput();  // flushes the pipeline once
-  // Warns where the valve messages are too slow for the recording to tell the amplifier's command hold.
-  void warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep, std::vector<std::string>* warnings) const;
+  // Finds and fits a recorded valve sweep; its model becomes the one the fits judge the port side with.
+  void analyzeValveSweep(OfflineResult* result, const std::function<void(const std::string&)>& tell);
+  // Warns (and says so) where the valve messages are too slow for the recording to tell the amplifier's
+  // command hold.
+  bool warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep, std::vector<std::string>* warnings) const;
 
   std::uint64_t messages_ = 0;
   bool flushed_ = false;
