@@ -23,6 +23,15 @@ double relativeError(const HydraulicEstimate& e, const DieCushionSimulator& plan
   return (estimateOf(e, name) - truth) / truth;
 }
 
+// Three press cycles of `plant` on the configured grid, and the fit on all of them without forgetting (as
+// analyze_bag fits a recording).
+std::vector<GridSample> threeCycles(DieCushionSimulator& plant, const IdentificationConfig& config) {
+  return simulateGrid(plant, 3 * plant.program().cycleDuration(), config.resamplerConfig());
+}
+HydraulicEstimate fitOnAllCycles(const std::vector<GridSample>& grid, const IdentificationConfig& config) {
+  return fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX);
+}
+
 HydraulicEstimate identify(DieCushionSimulator& plant, const IdentificationConfig& config, int cycles) {
   IdentificationPipeline pipeline(config);
   feed(plant, pipeline, cycles * plant.program().cycleDuration());
@@ -280,13 +289,8 @@ TEST(VolumeBalanceRegressor, TheIntervalsSpoolPartsAndCommandMeanRemoveTheDither
     plant.sensors.position_noise = 0.0;
     plant.sensors.velocity_noise = 0.0;
     DieCushionSimulator simulator(plant);
-    std::vector<GridSample> grid =
-        simulateGrid(simulator, 3 * simulator.program().cycleDuration(), config.resamplerConfig());
-    const double truth = simulator.trueParameter("dead_volume");
-    const auto error = [&]() {
-      return estimateOf(fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX), "dead_volume") /
-                 truth - 1.0;
-    };
+    std::vector<GridSample> grid = threeCycles(simulator, config);
+    const auto error = [&]() { return relativeError(fitOnAllCycles(grid, config), simulator, "dead_volume"); };
     with_both += error();
     for (auto& g : grid) g.u_mean = std::numeric_limits<float>::quiet_NaN();
     without_command_mean += error();
@@ -319,11 +323,8 @@ TEST(VolumeBalanceRegressor, TheWidestWindowsDeadVolumeIsUnbiasedUnderAllNoiseSo
     SimulatorConfig plant;
     plant.seed = 1000 + seed;
     DieCushionSimulator simulator(plant);
-    const std::vector<GridSample> grid =
-        simulateGrid(simulator, 3 * simulator.program().cycleDuration(), config.resamplerConfig());
-    const double error =
-        estimateOf(fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX), "dead_volume") /
-            simulator.trueParameter("dead_volume") - 1.0;
+    const double error = relativeError(fitOnAllCycles(threeCycles(simulator, config), config), simulator,
+                                       "dead_volume");
     sum += error;
     sum_squares += error * error;
   }
@@ -354,16 +355,12 @@ TEST(HydraulicIdentifier, PressureNoiseInTheCapacitiveColumnsIsCompensated) {
     plant.sensors.position_noise = 0.0;
     plant.sensors.velocity_noise = 0.0;
     DieCushionSimulator simulator(plant);
-    const std::vector<GridSample> clean =
-        simulateGrid(simulator, 3 * simulator.program().cycleDuration(), config.resamplerConfig());
+    const std::vector<GridSample> clean = threeCycles(simulator, config);
     std::vector<GridSample> noisy = clean;
     std::mt19937_64 rng(seed);
     std::normal_distribution<double> noise(0.0, 0.5e5);
     for (auto& g : noisy) g.p = static_cast<float>(g.p + noise(rng));
-    const auto fit = [&](const std::vector<GridSample>& grid) {
-      return fitOnCycles(grid, segmentStrokes(grid), config, INT_MIN, INT_MAX);
-    };
-    const HydraulicEstimate reference = fit(clean), with_noise = fit(noisy);
+    const HydraulicEstimate reference = fitOnAllCycles(clean, config), with_noise = fitOnAllCycles(noisy, config);
     bulk_shift += estimateOf(with_noise, "bulk_modulus") / estimateOf(reference, "bulk_modulus") - 1.0;
     dead_shift += estimateOf(with_noise, "dead_volume") / estimateOf(reference, "dead_volume") - 1.0;
   }

@@ -9,6 +9,7 @@
 
 #include "die_cushion_ident/core/analysis/formula_search.h"
 #include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
 
 namespace die_cushion_ident {
@@ -116,25 +117,22 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
   RecordedSweepOptions continuous;
   continuous.command_hold = 0.0;
   const RecordedSweep alternative = analyzeRecordedSweep(valve_, continuous);
-  char text[700];
   const ServoValveParameters& held = sweep.fit.parameters;
+  std::string text = formatted("the valve messages come every %.3g ms, fewer than %.0f per period of the highest "
+                               "analysed sweep frequency (%.0f Hz): the valve fit ",
+                               1e3 * sweep.message_interval, kMessagesPerPeriod, highest);
   if (alternative.fit.success) {
     const ServoValveParameters& other = alternative.fit.parameters;
-    std::snprintf(text, sizeof(text),
-                  "the valve messages come every %.3g ms, fewer than %.0f per period of the highest analysed sweep "
-                  "frequency (%.0f Hz): the valve fit depends on how long the amplifier held each command, which the "
-                  "recording cannot tell. Held one message interval (the default): %.1f Hz, damping %.2f, dead time "
-                  "%.2f ms; a continuous command (valve_command_hold: 0): %.1f Hz, damping %.2f, dead time %.2f ms. "
-                  "Set valve_command_hold to the amplifier's update period",
-                  1e3 * sweep.message_interval, kMessagesPerPeriod, highest, held.natural_frequency, held.damping,
-                  1e3 * held.dead_time, other.natural_frequency, other.damping, 1e3 * other.dead_time);
+    text += "depends on how long the amplifier held each command, which the recording cannot tell. " +
+            formatted("Held one message interval (the default): %.1f Hz, damping %.2f, dead time %.2f ms; ",
+                      held.natural_frequency, held.damping, 1e3 * held.dead_time) +
+            formatted("a continuous command (valve_command_hold: 0): %.1f Hz, damping %.2f, dead time %.2f ms. ",
+                      other.natural_frequency, other.damping, 1e3 * other.dead_time) +
+            "Set valve_command_hold to the amplifier's update period";
   } else {
-    std::snprintf(text, sizeof(text),
-                  "the valve messages come every %.3g ms, fewer than %.0f per period of the highest analysed sweep "
-                  "frequency (%.0f Hz): the valve fit (%.1f Hz, damping %.2f) assumes the amplifier held each "
-                  "command one message interval, which the recording cannot tell; set valve_command_hold to the "
-                  "amplifier's update period",
-                  1e3 * sweep.message_interval, kMessagesPerPeriod, highest, held.natural_frequency, held.damping);
+    text += formatted("(%.1f Hz, damping %.2f) assumes the amplifier held each command one message interval, "
+                      "which the recording cannot tell; set valve_command_hold to the amplifier's update period",
+                      held.natural_frequency, held.damping);
   }
   warnings->push_back(text);
   return true;

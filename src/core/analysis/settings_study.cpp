@@ -151,8 +151,8 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points, con
   if (integral.empty() || derivative.empty()) return "The study has no points at the configured sampling time.";
   const auto configured = integral.find({base.moving_average_width, base.derivative_width});
   const auto integral_best = best(integral);
-  // The integral form's bias changes sign over the widths (spool noise pushes it up at narrow windows, the
-  // controller's dither down at wide ones): its range, each end with its widths.
+  // The integral form's bias may change sign over the widths (on the default cushion it is slightly positive
+  // without a moving average and slightly negative at the widest windows): its range, each end with its widths.
   auto integral_low = integral.begin(), integral_high = integral.begin();
   for (auto it = integral.begin(); it != integral.end(); ++it) {
     if (it->second.bias < integral_low->second.bias) integral_low = it;

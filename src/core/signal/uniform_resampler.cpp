@@ -198,18 +198,26 @@ double UniformResampler::lead(int stream) const {
   return stream == static_cast<int>(InputStream::kValve) ? 0.5 * config_.sample_period : 0.0;
 }
 
-bool UniformResampler::spoolParts(double from, double to, double* drain, double* supply) const {
+UniformResampler::ValveIntervalMeans UniformResampler::valveIntervalMeans(double from, double to) const {
   const auto& buffer = channels_[static_cast<int>(InputStream::kValve)].buffer;
-  double positive = 0.0, total = 0.0, covered = 0.0;
+  double command = 0.0, positive = 0.0, total = 0.0, covered = 0.0;
+  bool spool_measured = true;
   for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
     const StreamSample& a = buffer[i];
     const StreamSample& b = buffer[i + 1];
     const double lo = std::max(a.stamp, from), hi = std::min(b.stamp, to);
-    if (hi <= lo) continue;
-    if (b.stamp - a.stamp > config_.max_gap || !std::isfinite(a.second) || !std::isfinite(b.second)) return false;
+    if (!(hi > lo)) continue;
+    if (b.stamp - a.stamp > config_.max_gap) return {};
+    const double span = hi - lo;
+    covered += span;
+    command += a.first * span;  // held from its stamp to the next message's
+    if (!std::isfinite(a.second) || !std::isfinite(b.second)) {
+      spool_measured = false;
+      continue;
+    }
+    // The spool along the line through the two messages.
     const double slope = (b.second - a.second) / (b.stamp - a.stamp);
     const double y_lo = a.second + slope * (lo - a.stamp), y_hi = a.second + slope * (hi - a.stamp);
-    const double span = hi - lo;
     total += 0.5 * (y_lo + y_hi) * span;
     if (y_lo >= 0.0 && y_hi >= 0.0) {
       positive += 0.5 * (y_lo + y_hi) * span;
@@ -217,29 +225,15 @@ bool UniformResampler::spoolParts(double from, double to, double* drain, double*
       const double top = std::max(y_lo, y_hi);
       positive += 0.5 * top * span * top / (top - std::min(y_lo, y_hi));
     }
-    covered += span;
   }
-  if (!(covered > 0.0)) return false;
-  *drain = positive / covered;
-  *supply = (total - positive) / covered;
-  return true;
-}
-
-bool UniformResampler::commandMean(double from, double to, double* mean) const {
-  const auto& buffer = channels_[static_cast<int>(InputStream::kValve)].buffer;
-  double integral = 0.0, covered = 0.0;
-  for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
-    const StreamSample& a = buffer[i];
-    const StreamSample& b = buffer[i + 1];
-    const double span = std::min(b.stamp, to) - std::max(a.stamp, from);
-    if (!(span > 0.0)) continue;
-    if (b.stamp - a.stamp > config_.max_gap) return false;
-    integral += a.first * span;
-    covered += span;
+  ValveIntervalMeans means;
+  if (!(covered > 0.0)) return means;
+  means.command = command / covered;
+  if (spool_measured) {
+    means.drain = positive / covered;
+    means.supply = (total - positive) / covered;
   }
-  if (!(covered > 0.0)) return false;
-  *mean = integral / covered;
-  return true;
+  return means;
 }
 
 void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
@@ -310,15 +304,12 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     g.v = second[kX];
     g.u = first[kV];
     g.y = second[kV];
-    double drain = kNaN, supply = kNaN;
-    if (std::isfinite(g.y) && spoolParts(t - 0.5 * dt, t + 0.5 * dt, &drain, &supply)) {
-      g.y_drain = static_cast<float>(drain);
-      g.y_supply = static_cast<float>(supply);
+    const ValveIntervalMeans means = valveIntervalMeans(t - 0.5 * dt, t + 0.5 * dt);
+    if (std::isfinite(g.y)) {
+      g.y_drain = static_cast<float>(means.drain);
+      g.y_supply = static_cast<float>(means.supply);
     }
-    double command = kNaN;
-    if (std::isfinite(g.u) && commandMean(t - 0.5 * dt, t + 0.5 * dt, &command)) {
-      g.u_mean = static_cast<float>(command);
-    }
+    if (std::isfinite(g.u)) g.u_mean = static_cast<float>(means.command);
     g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
     g.discontinuity = pending_discontinuity_;
     pending_discontinuity_ = false;

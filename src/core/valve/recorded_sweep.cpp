@@ -155,7 +155,6 @@ RecordedSweep analyzeRecordedSweep(const std::vector<ValveSample>& samples,
   FrequencyPointEstimator::Options point_options;
   point_options.command_hold = std::isfinite(options.command_hold) ? options.command_hold : interval;
   result.message_interval = interval;
-  result.command_hold = point_options.command_hold;
   point_options.sample_rate = interval > 0.0 ? 1.0 / interval : 1000.0;
   point_options.max_distortion = options.max_distortion;
   for (const auto& segment : result.segments) {

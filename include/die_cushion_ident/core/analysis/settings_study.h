@@ -29,8 +29,8 @@ struct SettingsStudyOptions {
   std::vector<int> moving_average_widths = {1, 11, 21, 31, 41, 51};
   std::vector<int> derivative_widths = {5, 15, 25, 35};
   std::vector<double> sample_periods = {0.001, 0.002, 0.005};  ///< studied at the configured widths
-  /// Noise seeds per setting. A run's dead volume scatters by 3.2 % at the widest windows (1.5 % at the
-  /// paper's): 64 seeds know its bias to about 0.4 %, 16 only to 0.8 %, no better than the 1 % asked of it.
+  /// Noise seeds per setting. A run's dead volume scatters by up to 3.4 % at the widest windows (1.75 % at
+  /// the paper's): 64 seeds know its bias to about 0.4 %, 16 only to 0.8 %, no better than the 1 % asked of it.
   int seeds = 64;
   int cycles = 3;   ///< press cycles per run
   int jobs = 2;     ///< threads

@@ -125,12 +125,16 @@ class UniformResampler {
   bool jumpConfirmed() const;
   void emitReady(std::vector<GridSample>* out, bool flushing);
   bool interpolate(int stream, double t, double* first, double* second) const;
-  /// The means of max(y, 0) and min(y, 0) over [from, to] of the line through the valve messages; false
-  /// where the spool is not measured or the interval is not covered.
-  bool spoolParts(double from, double to, double* drain, double* supply) const;
-  /// The mean over [from, to] of the valve command, each held from its stamp to the next message's; false
-  /// where the interval is not covered or lies in a gap.
-  bool commandMean(double from, double to, double* mean) const;
+  /// Over [from, to], from the valve messages: the mean of the command (each held from its stamp to the next
+  /// message's), and of the drain part max(y, 0) and the supply part min(y, 0) of the line through the
+  /// spool positions. NaN where the interval is not covered or lies in a gap; the parts also where the
+  /// spool is not measured.
+  struct ValveIntervalMeans {
+    double command = std::numeric_limits<double>::quiet_NaN();
+    double drain = std::numeric_limits<double>::quiet_NaN();
+    double supply = std::numeric_limits<double>::quiet_NaN();
+  };
+  ValveIntervalMeans valveIntervalMeans(double from, double to) const;
   /// How far past a grid point a stream must have spoken before the point is emitted: the valve half a
   /// sample, for the spool's mean over the interval around the point.
   double lead(int stream) const;

@@ -70,7 +70,6 @@ struct RecordedSweep {
   std::vector<FrequencyResponsePoint> points;  ///< one per segment with enough settled periods
   ServoValveFit fit;
   double message_interval = 0.0;  ///< [s] the valve messages' median interval
-  double command_hold = 0.0;      ///< [s] the hold divided out of the points (configured or the interval)
 };
 
 /// Detects the segments, measures a point over the settled whole periods of each and fits the valve model.
