@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -12,6 +13,7 @@
 #include "command_line.h"
 #include "message_conversions.h"
 #include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
+#include "die_cushion_ident/core/simulation/press_class.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 #include "die_cushion_ident/core/signal/velocity_from_position.h"
 
@@ -22,9 +24,15 @@ namespace {
 const char* kUsage =
     "usage: simulate_bag OUT.bag [--cycles N] [--hours H] [--plant-effects a,b] [--custom-effect NAME=EXPR]\n"
     "                    [--set NAME=VALUE]... [--seed S] [--sweep] [--step-test VOLTAGE] [--epoch SECONDS]\n"
+    "                    [--press CLASS] [--variation N] [--write-config FILE.yaml] [--write-truth FILE.yaml]\n"
     "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name N]\n"
     "                    [--rates P,X,V] [--stamp-offsets P,X,V] [--continuous-command] [--start-offset S]\n"
-    "  Press cycles of the simulated die cushion (2.62 s each) on /die_cushion/{pressure,position,valve};\n"
+    "  Press cycles of the simulated die cushion on /die_cushion/{pressure,position,valve};\n"
+    "  --press CLASS          the kind of press: slow_hydraulic (the paper's, default; 2.62 s cycles),\n"
+    "                         fast_mechanical (crank, 0.5 m/s, 4 ms impact), small_stiff (0.02 m^2, 1 l),\n"
+    "                         large_soft (0.2 m^2, 20 l); --variation N draws another press of the class\n"
+    "                         (0: the class's nominal one); --write-config FILE writes its geometry for\n"
+    "                         analyze_bag --config; --write-truth FILE its true parameters (YAML);\n"
     "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest;\n"
     "  --step-test V then a valve command step of V volts at rest (held 1.5 s), for the pressure's t63.\n"
     "  Sensor configurations a press may have:\n"
@@ -102,11 +110,26 @@ int run(int argc, char** argv) {
   double cycles = 6, hours = 0.0, epoch = 1.7e9, start_offset = 0.0;
   bool sweep = false, continuous_command = false;
   double step_test = 0.0;
+  // The sensors and true parameters as given; the plant itself is the press class's, built after parsing.
   SimulatorConfig plant;
+  PressClass press = PressClass::kSlowHydraulic;
+  double variation = 0.0;
+  std::string config_out, truth_out;
   Recording recording;
   ArgumentParser arguments;
   arguments.number("--cycles", 0.0, 1e6, &cycles)
       .number("--hours", 0.0, 1e4, &hours)
+      .option("--press",
+              [&](const std::string& v) {
+                if (!parsePressClass(v, &press)) {
+                  std::string known;
+                  for (PressClass c : allPressClasses()) known += std::string(known.empty() ? "" : ", ") + pressClassName(c);
+                  throw std::invalid_argument("--press '" + v + "' is not a press class (" + known + ")");
+                }
+              })
+      .number("--variation", 0.0, 1e9, &variation)
+      .option("--write-config", [&](const std::string& v) { config_out = v; })
+      .option("--write-truth", [&](const std::string& v) { truth_out = v; })
       .option("--plant-effects", [&](const std::string& v) { plant.effects = splitList(v); })
       .option("--custom-effect", [&](const std::string& v) { plant.custom_effects.push_back(v); })
       .option("--set",
@@ -160,6 +183,45 @@ int run(int argc, char** argv) {
       recording.joints.end()) {
     std::cerr << "simulate_bag: --joint-name '" << recording.cushion_joint << "' is not among --joints\n";
     return 2;
+  }
+  if (variation != std::floor(variation)) {
+    std::cerr << "simulate_bag: --variation needs a whole number, got " << variation << "\n";
+    return 2;
+  }
+  {
+    // The class's press with the options' sensors, effects and true parameters on top.
+    SimulatorConfig built = pressClassPlant(press, static_cast<std::uint64_t>(variation), plant.effects, plant.seed);
+    built.sensors = plant.sensors;
+    built.custom_effects = plant.custom_effects;
+    for (const auto& [name, value] : plant.parameters) built.parameters[name] = value;
+    plant = built;
+  }
+  if (!config_out.empty()) {
+    std::ofstream file(config_out);
+    file << "# The press simulate_bag recorded (" << pressClassName(press) << ", variation " << variation
+         << "): its geometry for analyze_bag --config.\n"
+         << "piston_area: " << plant.geometry.piston_area << "\nstroke_length: " << plant.geometry.stroke_length
+         << "\nsupply_pressure: " << plant.geometry.supply_pressure << "\n";
+    if (!file) {
+      std::cerr << "simulate_bag: cannot write " << config_out << "\n";
+      return 1;
+    }
+  }
+  if (!truth_out.empty()) {
+    // The plant's true parameters, by name (every one the simulated model has, effects included), and its valve.
+    const DieCushionSimulator probe(plant);
+    std::ofstream file(truth_out);
+    file.precision(10);
+    file << "# The true parameters of the press simulate_bag recorded (" << pressClassName(press) << ", variation "
+         << variation << ").\n";
+    const auto& infos = probe.model().parameterInfos();
+    for (std::size_t i = 0; i < infos.size(); ++i) file << infos[i].name << ": " << probe.trueParameters()(i) << "\n";
+    file << "valve_natural_frequency: " << plant.valve.natural_frequency << "\nvalve_damping: " << plant.valve.damping
+         << "\nvalve_gain: " << plant.valve.gain << "\nvalve_dead_time: " << plant.valve.dead_time << "\n";
+    if (!file) {
+      std::cerr << "simulate_bag: cannot write " << truth_out << "\n";
+      return 1;
+    }
   }
   if (!(plant.sensors.valve_rate <= 1.0 / plant.control_period + 1e-9)) {
     std::cerr << "simulate_bag: the valve rate cannot exceed the 1000 Hz command rate\n";

@@ -199,17 +199,21 @@ void DieCushionSimulator::sampleSensors(std::vector<SimulatedMeasurement>* out) 
 }
 
 void simulateOnGrid(DieCushionSimulator& simulator, double duration, UniformResampler& resampler,
-                    std::vector<GridSample>* grid) {
+                    std::vector<GridSample>* grid, ValveMessageSpool* valve_model) {
   std::vector<SimulatedMeasurement> messages;
   simulator.run(duration, &messages);
-  for (const auto& m : messages) resampler.push(m.stream, m.sample, grid);
+  for (auto& m : messages) {
+    if (valve_model && m.stream == InputStream::kValve) valve_model->process(&m.sample);
+    resampler.push(m.stream, m.sample, grid);
+  }
 }
 
 std::vector<GridSample> simulateGrid(DieCushionSimulator& simulator, double duration,
                                      const UniformResampler::Config& config) {
   UniformResampler resampler(config);
+  ValveMessageSpool valve_model(simulator.config().valve, config.max_gap, true);
   std::vector<GridSample> grid;
-  simulateOnGrid(simulator, duration, resampler, &grid);
+  simulateOnGrid(simulator, duration, resampler, &grid, &valve_model);
   resampler.flush(&grid);
   return grid;
 }

@@ -14,6 +14,7 @@
 #include "die_cushion_ident/core/simulation/pressure_controller.h"
 #include "die_cushion_ident/core/control/pressure_feed_forward.h"
 #include "die_cushion_ident/core/valve/servo_valve.h"
+#include "die_cushion_ident/core/valve/valve_message_spool.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 namespace die_cushion_ident {
@@ -121,10 +122,12 @@ class DieCushionSimulator {
 };
 
 /// Runs `simulator` for `duration` seconds and passes what its sensors sent through `resampler` onto
-/// `grid` (not flushed: a run in several parts keeps one grid).
+/// `grid` (not flushed: a run in several parts keeps one grid); `valve_model` (may be null) adds its spool
+/// to the valve messages as the identification pipeline does.
 void simulateOnGrid(DieCushionSimulator& simulator, double duration, UniformResampler& resampler,
-                    std::vector<GridSample>* grid);
-/// The same for one run, flushed: the uniform samples of `duration` seconds of the simulated press.
+                    std::vector<GridSample>* grid, ValveMessageSpool* valve_model = nullptr);
+/// The same for one run, flushed: the uniform samples of `duration` seconds of the simulated press, with
+/// the simulated valve's own model spool (a valve known exactly, as after a sweep).
 std::vector<GridSample> simulateGrid(DieCushionSimulator& simulator, double duration,
                                      const UniformResampler::Config& resampler = {});
 
