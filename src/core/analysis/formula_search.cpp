@@ -279,7 +279,8 @@ double freeRunRms(const std::vector<GridSample>& grid, const StrokeSegmentation&
   for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
     GridSample g = grid[i];
     if (i == begin) g.discontinuity = true;
-    const double p = free_run.step(g, theta);
+    const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
+    const double p = free_run.step(g, theta, next);
     if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
     sum += (g.p - p) * (g.p - p);
     ++n;

@@ -79,7 +79,8 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
         GridSample g = grid[i];
         // Anchored at each cycle's start: a cycle's error is its own, not carried over from the one before.
         if (i == begin) g.discontinuity = true;
-        const double p = free_run.step(g, theta);
+        const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
+        const double p = free_run.step(g, theta, next);
         if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
         sum[c] += (g.p - p) * (g.p - p);
         ++count[c];
@@ -105,6 +106,8 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
 HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors& with, double significance) {
   HeldOutComparison result;
   result.error_reduction = base.rms > 0.0 ? 1.0 - with.rms / base.rms : 0.0;
+  result.base_rms = base.rms;
+  result.with_rms = with.rms;
   // Paired by cycle id: a cycle that one model could not run does not shift the others.
   std::vector<double> log_ratios;
   for (std::size_t c = 0; c < base.cycle_rms.size() && c < with.cycle_rms.size(); ++c) {

@@ -10,8 +10,7 @@ IdentificationPipeline::IdentificationPipeline(const IdentificationConfig& confi
       identifier_(config),
       delays_(config.appliedTopicDelays()),
       sample_period_(config.resampler.sample_period),
-      spool_predictor_(config.valve),
-      max_gap_(config.resampler.max_gap) {
+      spool_model_(config.valve, config.resampler.max_gap, config.valve_model_drives_free_run) {
   grid_.reserve(64);
   resampled_.reserve(64);
 }
@@ -19,7 +18,7 @@ IdentificationPipeline::IdentificationPipeline(const IdentificationConfig& confi
 UniformResampler::PushResult IdentificationPipeline::push(InputStream stream, const StreamSample& sample) {
   StreamSample corrected = sample;
   corrected.stamp -= delays_[static_cast<int>(stream)];
-  if (stream == InputStream::kValve) predictSpool(&corrected);
+  if (stream == InputStream::kValve) spool_model_.process(&corrected);
   const auto result = resampler_.push(stream, corrected, &resampled_);
   if (result == UniformResampler::PushResult::kRestarted) {
     // Finish the old time base's samples before the identifier starts again.
@@ -47,37 +46,12 @@ void IdentificationPipeline::reset() {
   identifier_.reset();
   resampled_.clear();
   grid_.clear();
-  spool_predictor_.reset();
-  last_valve_stamp_ = -std::numeric_limits<double>::infinity();
-  last_voltage_ = last_measured_spool_ = 0.0;
-  predicting_ = false;
-}
-
-void IdentificationPipeline::predictSpool(StreamSample* valve) {
-  if (!std::isfinite(valve->stamp) || !std::isfinite(valve->first)) return;  // the resampler rejects it
-  const double dt = valve->stamp - last_valve_stamp_;
-  if (std::isfinite(valve->second)) {
-    last_measured_spool_ = valve->second;
-    predicting_ = false;
-  } else if (!predicting_ || !(dt > 0.0 && dt <= max_gap_)) {
-    // Start (or restart after a gap or a backward jump) from the last measured or a steady spool.
-    spool_predictor_.reset(predicting_ ? spool_predictor_.position() : last_measured_spool_);
-    predicting_ = true;
-    valve->second = spool_predictor_.position();
-  } else {
-    // The previous voltage was in force until now (held by the amplifier).
-    valve->second = spool_predictor_.advance(dt, last_voltage_);
-  }
-  if (dt > 0.0 || dt < -max_gap_) {  // not for a duplicate or a slightly late message
-    last_valve_stamp_ = valve->stamp;
-    last_voltage_ = valve->first;
-  }
+  spool_model_.reset();
 }
 
 void IdentificationPipeline::setValveModel(const ServoValveParameters& valve) {
   identifier_.setValveModel(valve);
-  spool_predictor_ = ServoValve(valve);
-  predicting_ = false;  // restart the prediction from the last measured spool
+  spool_model_.setValve(valve);
 }
 
 void IdentificationPipeline::consume() {

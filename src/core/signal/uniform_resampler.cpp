@@ -167,7 +167,7 @@ UniformResampler::PushResult UniformResampler::accept(InputStream stream, const 
 
 void UniformResampler::flush(std::vector<GridSample>* out) { emitReady(out, true); }
 
-bool UniformResampler::interpolate(int stream, double t, double* first, double* second) const {
+bool UniformResampler::interpolate(int stream, double t, double* first, double* second, double* third) const {
   const auto& buffer = channels_[stream].buffer;
   // The buffer is popped so that buffer[0] is the last message at or before the previous grid point.
   for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
@@ -181,16 +181,19 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
       const bool held = stream == static_cast<int>(InputStream::kValve);
       *first = held ? (t < b.stamp ? a.first : b.first) : a.first + w * (b.first - a.first);
       *second = a.second + w * (b.second - a.second);  // NaN stays NaN: not measured
+      if (third) *third = a.third + w * (b.third - a.third);
       return true;
     }
   }
   if (!buffer.empty() && buffer.back().stamp == t) {
     *first = buffer.back().first;
     *second = buffer.back().second;
+    if (third) *third = buffer.back().third;
     return true;
   }
   *first = kNaN;
   *second = kNaN;
+  if (third) *third = kNaN;
   return false;
 }
 
@@ -264,6 +267,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     // Each stream's interpolated (first, second) at t; NaN where it has nothing to bracket t with.
     double first[kInputStreamCount] = {kNaN, kNaN, kNaN};
     double second[kInputStreamCount] = {kNaN, kNaN, kNaN};
+    double modelled_spool = kNaN;
     for (int s = 0; s < kInputStreamCount; ++s) {
       const Channel& c = channels_[s];
       StreamHealth& h = health_[s];
@@ -275,7 +279,8 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
             break;
           }
         }
-        if (interpolate(s, t, &first[s], &second[s])) any_bracketed = true;
+        const bool valve = s == static_cast<int>(InputStream::kValve);
+        if (interpolate(s, t, &first[s], &second[s], valve ? &modelled_spool : nullptr)) any_bracketed = true;
         continue;
       }
       const double silent_since = c.has_any ? c.buffer.back().stamp : first_stamp_;
@@ -310,6 +315,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
       g.y_supply = static_cast<float>(means.supply);
     }
     if (std::isfinite(g.u)) g.u_mean = static_cast<float>(means.command);
+    g.y_model = static_cast<float>(modelled_spool);
     g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
     g.discontinuity = pending_discontinuity_;
     pending_discontinuity_ = false;

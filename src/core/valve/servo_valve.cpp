@@ -18,6 +18,50 @@ ServoValve::ServoValve(const ServoValveParameters& parameters, double max_step)
   reset();
 }
 
+ServoValve ServoValve::exact(const ServoValveParameters& parameters) {
+  ServoValve valve(parameters);
+  valve.exact_ = true;
+  return valve;
+}
+
+// The deviation e = y - K u from the held command's steady state obeys e'' + 2 a e' + w0^2 e = 0, a = D w0:
+//   e(h) = exp(-a h) [e0 C + (e0' + a e0) S / wd],   e'(h) = exp(-a h) [e0' C - (a e0' + w0^2 e0) S / wd],
+// C, S = cos, sin (wd = w0 sqrt(1 - D^2), D < 1) or cosh, sinh (wd = w0 sqrt(D^2 - 1), D > 1); S / wd -> h
+// and C -> 1 where critically damped.
+void ServoValve::propagateLinear(double h, double u) {
+  // The coefficients depend on h alone, and recorded commands come at a few intervals: a small cache of them
+  // (keyed by h to the nanosecond) saves the exponential and the trigonometry of nearly every stretch.
+  const long long key = std::llround(h * 1e9);
+  Propagation* p = nullptr;
+  for (Propagation& cached : propagations_) {
+    if (cached.key == key) p = &cached;
+  }
+  if (!p) {
+    p = &propagations_[next_propagation_];
+    next_propagation_ = (next_propagation_ + 1) % kPropagations;
+    const double hk = key * 1e-9;
+    const double w = omega_, d2 = parameters_.damping * parameters_.damping;
+    p->key = key;
+    p->c = 1.0;
+    p->s_over_wd = hk;
+    if (std::abs(d2 - 1.0) > 1e-6) {
+      const double wd = w * std::sqrt(std::abs(1.0 - d2));
+      p->c = d2 < 1.0 ? std::cos(wd * hk) : std::cosh(wd * hk);
+      p->s_over_wd = (d2 < 1.0 ? std::sin(wd * hk) : std::sinh(wd * hk)) / wd;
+    }
+    p->decay = std::exp(-parameters_.damping * omega_ * hk);
+  }
+  const double w = omega_, a = parameters_.damping * omega_;
+  const double e0 = y_ - parameters_.gain * u, de0 = y_dot_;
+  const double e = p->decay * (e0 * p->c + (de0 + a * e0) * p->s_over_wd);
+  y_dot_ = p->decay * (de0 * p->c - (a * de0 + w * w * e0) * p->s_over_wd);
+  y_ = e + parameters_.gain * u;
+  if (std::abs(y_) >= 1.0) {  // against the mechanical stop
+    y_ = std::clamp(y_, -1.0, 1.0);
+    if (y_ * y_dot_ > 0.0) y_dot_ = 0.0;
+  }
+}
+
 void ServoValve::reset(double position) {
   time_ = 0.0;
   y_ = position;
@@ -60,13 +104,35 @@ double ServoValve::advance(double dt, double command_voltage) {
   while (time_ < end) {
     // Steps end exactly where the delayed command switches, so the dead time is not rounded to a step.
     const double u = delayedCommand(time_ + 1e-12);
-    double stop = std::min(end, time_ + max_step_);
+    double stop = exact_ ? end : std::min(end, time_ + max_step_);
     if (commands_.size() >= 2) stop = std::min(stop, commands_[1].first + parameters_.dead_time);
-    if (!(stop > time_)) stop = std::min(end, time_ + max_step_);
-    integrate(stop - time_, u);
+    if (!(stop > time_)) stop = exact_ ? end : std::min(end, time_ + max_step_);
+    if (exact_) {
+      propagateExactly(stop - time_, u);
+    } else {
+      integrate(stop - time_, u);
+    }
     time_ = stop;
   }
   return y_;
+}
+
+void ServoValve::propagateExactly(double h, double u) {
+  // The closed form knows neither the mechanical stop nor the speed limit. Where the stretch comes near
+  // either, it is integrated in small steps like the plant's own valve, which saturates inside the step.
+  const double y0 = y_, yd0 = y_dot_;
+  propagateLinear(h, u);
+  const double vmax = parameters_.max_spool_velocity;
+  const bool saturates = std::abs(y_) >= 1.0 || std::abs(y_dot_) > vmax || std::abs(parameters_.gain * u) >= 1.0 ||
+                         std::abs(yd0) >= vmax;
+  if (!saturates) return;
+  y_ = y0;
+  y_dot_ = yd0;
+  for (double done = 0.0; done < h;) {
+    const double step = std::min(max_step_, h - done);
+    integrate(step, u);
+    done += step;
+  }
 }
 
 SampledServoValve::SampledServoValve(const ServoValveParameters& p, double sample_period) {

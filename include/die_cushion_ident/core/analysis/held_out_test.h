@@ -28,6 +28,8 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
 /// samples, so a per-sample test would call every extension significant).
 struct HeldOutComparison {
   double error_reduction = 0.0;  ///< 1 - rms(with) / rms(base)
+  double base_rms = 0.0;         ///< [Pa] the base model's held-out error
+  double with_rms = 0.0;         ///< [Pa] the extended model's
   double t_statistic = 0.0;      ///< < 0: the extended model is better
   int cycles = 0;                ///< cycles paired (by cycle id)
   /// t below the exact one-sided Student quantile at `significance` (and at least two cycles).

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,6 +19,11 @@ struct RegionError {
   int samples = 0;
   double rms = 0.0;            ///< [Pa] free-run error RMS
   double mean_residual = 0.0;  ///< [Pa] measured - modelled: > 0 where the model under-predicts
+  /// The error the model makes in the region, as opposed to what it carries in from before: the model
+  /// restarted from the measurement every ModelAssessment::kMadeHorizon, its error RMS and mean residual
+  /// [Pa] at the region's samples (NaN where not computed).
+  double made_rms = std::numeric_limits<double>::quiet_NaN();
+  double made_mean_residual = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Stroke phase and cycle of every grid sample: phases from StrokePhaseClassifier, a new cycle at every
@@ -47,9 +53,14 @@ struct ModelAssessment {
   double simulation_error_rms = 0.0;  ///< [Pa]
   /// [Pa] the free run at every kModelledStride-th grid sample (0, 5, 10, ...); NaN where it is not running
   static constexpr std::size_t kModelledStride = 5;
+  /// [s] how long the model runs from the measurement before it is restarted, for the error each phase makes:
+  /// a shut valve carries an error made while it closes through the whole bottom hold, and the free run
+  /// alone would blame the hold.
+  static constexpr double kMadeHorizon = 0.05;
   std::vector<float> modelled;
   std::vector<RegionError> by_phase, by_pressure, by_velocity, by_opening;
-  /// The worst regions in words, e.g. "the model under-predicts the pressure during bottom_hold by 38 bar".
+  /// The worst regions in words, by the error made there (made_rms), e.g. "the model under-predicts the
+  /// pressure during bottom_hold by 3.8 bar on average within 50 ms of the measurement".
   std::vector<std::string> worst_regions;
 };
 

@@ -54,6 +54,11 @@ struct IdentificationConfig {
 
   /// Spool model used when the spool position is not measured (NaN on the valve topic).
   ServoValveParameters valve;
+  /// The valve model's spool for the recorded commands drives the free run instead of the measured spool
+  /// (whose white noise a shut valve integrates): set where the model is known to follow the spool
+  /// (SettingsFromRecording fitted it to the recording's operation). Where the spool is not measured the
+  /// model's spool drives everything anyway.
+  bool valve_model_drives_free_run = false;
   /// [s] how long the valve amplifier holds each command; NaN (default) = one valve message interval;
   /// 0 = the voltage was sampled from a continuous signal (no hold to divide out of a sweep's response).
   double valve_command_hold = std::numeric_limits<double>::quiet_NaN();

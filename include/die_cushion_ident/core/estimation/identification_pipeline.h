@@ -8,6 +8,7 @@
 
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
 #include "die_cushion_ident/core/valve/servo_valve.h"
+#include "die_cushion_ident/core/valve/valve_message_spool.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/signal/velocity_from_position.h"
 
@@ -15,9 +16,9 @@ namespace die_cushion_ident {
 
 /// The per-message path of the live node and of analyze_bag: raw stream messages (stamps corrected by the
 /// topic delays) -> UniformResampler -> VelocityFromPosition -> HydraulicIdentifier. A restart of the time
-/// base (bag played again) restarts the identification too. Where the valve topic carries no spool position
-/// (NaN), the configured valve model predicts it message by message from the held command voltages, before
-/// resampling (at the valve's own rate, not the grid's). Where the position topic carries no velocity, it
+/// base (bag played again) restarts the identification too. The configured valve model runs on the valve
+/// messages (ValveMessageSpool): its spool drives the free run, and stands in where the valve topic carries
+/// no spool position (NaN). Where the position topic carries no velocity, it
 /// is derived from the positions on the grid; every sample then leaves the pipeline velocityDelay() later.
 class IdentificationPipeline {
  public:
@@ -50,7 +51,6 @@ class IdentificationPipeline {
 
  private:
   void consume();
-  void predictSpool(StreamSample* valve);
 
   UniformResampler resampler_;
   VelocityFromPosition velocity_;
@@ -60,12 +60,7 @@ class IdentificationPipeline {
   double sample_period_;
   StepCallback on_step_;
   GridCallback on_grid_;
-  ServoValve spool_predictor_;
-  double max_gap_;
-  double last_valve_stamp_ = -std::numeric_limits<double>::infinity();
-  double last_voltage_ = 0.0;
-  double last_measured_spool_ = 0.0;
-  bool predicting_ = false;
+  ValveMessageSpool spool_model_;
 };
 
 }  // namespace die_cushion_ident

@@ -20,6 +20,8 @@ struct StreamSample {
   double stamp = 0.0;
   double first = 0.0;
   double second = 0.0;
+  /// valve only: the valve model's spool for the commands so far (IdentificationPipeline), NaN where none.
+  double third = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One sample on the uniform grid. Channels of a stream that was stale or inside a gap are NaN and
@@ -43,6 +45,13 @@ struct GridSample {
   /// others in between (every other one of a 1 kHz controller on the 2 ms grid), and a valve model run
   /// on u alone misses them (doc/equations.md, "The spool crossing 0 between grid points").
   float u_mean = std::numeric_limits<float>::quiet_NaN();
+  /// The spool that drives the free run (FreeRunPressure): the valve model's response to the recorded
+  /// commands, free of the spool sensor's noise (IdentificationPipeline, where the valve model is known to
+  /// follow the spool: IdentificationConfig::valve_model_drives_free_run). A shut valve integrates every
+  /// error of the spool it is driven by: the measured spool's 0.002 of white noise made the free run of a
+  /// clean fast press 3 bar wrong (doc/equations.md, "The free run's spool"). NaN where there is none: the
+  /// free run then takes the measured spool.
+  float y_model = std::numeric_limits<float>::quiet_NaN();
   bool complete = true;
   bool discontinuity = false;
 };
@@ -124,7 +133,7 @@ class UniformResampler {
   /// True once the held messages confirm a jump of the time base.
   bool jumpConfirmed() const;
   void emitReady(std::vector<GridSample>* out, bool flushing);
-  bool interpolate(int stream, double t, double* first, double* second) const;
+  bool interpolate(int stream, double t, double* first, double* second, double* third = nullptr) const;
   /// Over [from, to], from the valve messages: the mean of the command (each held from its stamp to the next
   /// message's), and of the drain part max(y, 0) and the supply part min(y, 0) of the line through the
   /// spool positions. NaN where the interval is not covered or lies in a gap; the parts also where the

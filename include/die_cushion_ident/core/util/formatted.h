@@ -6,10 +6,12 @@
 
 namespace die_cushion_ident {
 
-/// printf of up to three numbers into a string, for the numbers in messages and explanations.
-inline std::string formatted(const char* pattern, double a = 0.0, double b = 0.0, double c = 0.0) {
-  char text[512];
-  std::snprintf(text, sizeof(text), pattern, a, b, c);
+/// printf of numbers into a string, for the numbers in messages and explanations. Every number is passed as
+/// a double (patterns use %g, %f, %e and their kin, never %d).
+template <typename... Numbers>
+std::string formatted(const char* pattern, Numbers... numbers) {
+  char text[768];
+  std::snprintf(text, sizeof(text), pattern, static_cast<double>(numbers)...);
   return text;
 }
 

@@ -19,10 +19,15 @@ struct ServoValveParameters {
 /// Spool position under onboard position control:
 ///   y'' / w0^2 + 2 D / w0 * y' + y = K * U(t - T_dead),   |y| <= 1 (mechanical stop), |y'| <=
 ///   max_spool_velocity,
-/// integrated by RK4 in steps of at most max_step with the command held piecewise constant.
+/// integrated by RK4 in steps of at most max_step with the command held piecewise constant; or, built by
+/// exact(), by the linear model's own solution between the switches of the delayed command (no speed limit;
+/// the stop applied where a stretch ends): a few exponentials per message instead of ten RK4 steps, for
+/// running the model on recorded commands (ValveMessageSpool, fitValveToOperation).
 class ServoValve {
  public:
   explicit ServoValve(const ServoValveParameters& parameters, double max_step = 1e-4);
+  /// The exact propagation (max_spool_velocity is ignored).
+  static ServoValve exact(const ServoValveParameters& parameters);
 
   /// Applies command voltage u from now on and advances by dt [s]; returns the spool position.
   double advance(double dt, double command_voltage);
@@ -36,9 +41,19 @@ class ServoValve {
  private:
   double delayedCommand(double t);
   void integrate(double h, double u);
+  void propagateExactly(double h, double u);
+  void propagateLinear(double h, double u);
 
   ServoValveParameters parameters_;
   double max_step_;
+  bool exact_ = false;
+  struct Propagation {
+    long long key = -1;  // [ns] the stretch's length
+    double c = 1.0, s_over_wd = 0.0, decay = 1.0;
+  };
+  static constexpr int kPropagations = 4;
+  Propagation propagations_[kPropagations];
+  int next_propagation_ = 0;
   double omega_;
   double time_ = 0.0;
   double y_ = 0.0;
