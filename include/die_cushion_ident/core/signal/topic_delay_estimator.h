@@ -16,28 +16,31 @@ constexpr double kLargeTopicDelay = 0.005;
 struct TopicDelayEstimate {
   /// [s] how late each topic's stamps are against the pressure's (pressure 0 by definition).
   std::array<double, kInputStreamCount> delays = {0.0, 0.0, 0.0};
-  /// [s] half-width of the interval in which the cost stays within its noise of the minimum, per topic
-  /// (pressure 0): how sharply the data pin the offset down.
+  /// [s] standard uncertainty of each offset (pressure 0): its statistical part from the cost's curvature
+  /// with the rows' correlation, the method's (how far the offset moves with windows half as long) and an
+  /// eighth of a sample period, the interpolation's floor.
   std::array<double, kInputStreamCount> resolution = {0.0, 0.0, 0.0};
   bool valid = false;  ///< enough excited samples to judge
   int samples = 0;     ///< samples the estimate rests on
   std::string message;  ///< why not valid, in words
   /// Whether any offset is large enough to be worth correcting (beyond a quarter of the sample period).
   bool significant(double sample_period) const;
+  /// Whether any offset differs from 0 by more than two standard uncertainties.
+  bool distinguishable() const;
 };
 
 /// Estimates constant clock offsets between the pressure, position and valve topics from the physics: the
-/// volume balance
-///   A v = (A (s - x) / K') dp/dt + (V_dead / K') dp/dt + c_air dp/dt p_atm/(p + p_atm)^2 + K_v f(y, p)
-///         + c_overlap sign(y) sqrt(dp_valve) + c_tank y / sqrt(p) + G_L p + q_0
-/// (every library effect to first order)
-/// holds at every instant only when the signals line up in time. For each candidate offset tau of one topic
-/// (its channels read at t + tau) the balance is fitted by linear least squares (the coefficients are free,
-/// so no identified model is needed) and the equation-error RMS is the cost; the offset is the minimum,
-/// searched on the grid over +-search, refined in quarter-samples and by a parabola through the best three.
-/// Position and valve are searched in turn (coordinate descent, twice). All signals pass the same
-/// zero-phase smoothing, so the smoothing cannot shift the minimum. Only samples where the model holds
-/// (pressure above min_pressure, valve not saturated) and the cushion moves or the pressure changes count.
+/// volume balance integrated over windows of 25 ms (the identification's integral form, with free
+/// coefficients, so no identified model is needed)
+///   A (x(t+W) - x(t)) = c_1 int A (s - x) dp + c_2 int dp + c_3 int air(p) dp + int f(y) sqrt(dp_port) dt
+///                       + c_t int y / sqrt(p) dt + c_L int p dt + c_0 W,
+/// f a piecewise-linear opening with kinks at 1, 2, 4 and 7 % of the spool (a dead band fits),
+/// holds for every window only when the signals line up in time. For each candidate offset of a topic (its
+/// channels read at t + tau) the balance is fitted by linear least squares, the pressure noise's share of
+/// the capacitive columns removed (errors in variables), and the residual's RMS is the cost; the offsets are
+/// its minimum: a coarse map over both offsets on smoothed signals, its three best basins refined in whole,
+/// quarter samples and by a parabola, the lowest kept. Only windows where the model holds (pressure above
+/// min_pressure, valve not saturated) and the cushion moves or the pressure changes count.
 TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config);
 
 }  // namespace die_cushion_ident
