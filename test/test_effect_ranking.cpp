@@ -13,6 +13,7 @@
 
 #include "die_cushion_ident/core/analysis/effect_ranking.h"
 #include "simulation_fixtures.h"
+#include "die_cushion_ident/core/simulation/press_class.h"
 
 namespace die_cushion_ident {
 namespace {
@@ -187,10 +188,46 @@ TEST(ModelAssessment, NamesWhereAMissingLeakageShowsInWords) {
   ASSERT_NE(hold, nullptr);
   EXPECT_LT(hold->mean_residual, 0.0) << "over-predicted";
   EXPECT_GT(hold->rms, a.simulation_error_rms);
-  EXPECT_NE(a.worst_regions.front().find("over-predicts the pressure"), std::string::npos)
-      << a.worst_regions.front();
+  // The stroke phase where the model makes its error: the hold, where only the leak moves the pressure.
+  std::string phase_sentence;
+  for (const auto& sentence : a.worst_regions) {
+    if (sentence.find(" during ") != std::string::npos) phase_sentence = sentence;
+  }
+  EXPECT_NE(phase_sentence.find("over-predicts the pressure during bottom_hold"), std::string::npos) << phase_sentence;
   // 4 strokes, all complete: the recording's last one counts once the cushion is back at the top.
   EXPECT_EQ(r.strokes.cycles, 4);
+}
+
+// Issue 26: an error made while drawing is carried through the bottom hold, where the shut valve cannot pull
+// the free run back; the free run's error is largest there, but the error is made while drawing, and that is
+// where the report says the model fails. A flow gain 5 % high on every press class: the hold's own error (the
+// model restarted from the measurement every 50 ms) is under a fifth of the drawing's, and the sentence
+// naming a stroke phase names one where the valve is open.
+TEST(ModelAssessment, AnErrorMadeWhileDrawingIsNotBlamedOnTheBottomHold) {
+  for (PressClass press : allPressClasses()) {
+    SCOPED_TRACE(pressClassName(press));
+    const SimulatorConfig plant = pressClassPlant(press);
+    DieCushionSimulator simulator(plant);
+    const std::vector<GridSample> grid = simulateGrid(simulator, 4 * simulator.program().cycleDuration());
+    const StrokeSegmentation strokes = segmentStrokes(grid);
+    const HydraulicModel model = HydraulicModel::fromNames(plant.geometry, {});
+    ParameterVector theta = simulator.trueParameters();
+    theta(HydraulicModel::kValveFlowGain) *= 1.05;
+    const ModelAssessment a = assessModel(grid, strokes, model, theta, 5e5);
+    const RegionError *hold = nullptr, *drawing = nullptr;
+    for (const auto& region : a.by_phase) {
+      if (region.label == "bottom_hold") hold = &region;
+      if (region.label == "drawing") drawing = &region;
+    }
+    ASSERT_TRUE(hold && drawing);
+    EXPECT_GT(hold->rms, 0.8 * drawing->rms) << "the free run carries the drawing's error through the hold";
+    EXPECT_LT(hold->made_rms, 0.2 * drawing->made_rms) << "but the hold makes little of it";
+    for (const auto& sentence : a.worst_regions) {
+      if (sentence.find(" during ") != std::string::npos) {
+        EXPECT_EQ(sentence.find("bottom_hold"), std::string::npos) << sentence;
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -35,6 +35,10 @@ void emitRegions(YAML::Emitter& out, const char* key, const std::vector<RegionEr
     out << YAML::Key << "samples" << YAML::Value << r.samples;
     out << YAML::Key << "simulation_error_rms" << YAML::Value << r.rms;
     out << YAML::Key << "mean_residual" << YAML::Value << r.mean_residual;
+    if (std::isfinite(r.made_rms)) {
+      out << YAML::Key << "made_error_rms" << YAML::Value << r.made_rms;
+      out << YAML::Key << "made_mean_residual" << YAML::Value << r.made_mean_residual;
+    }
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
@@ -86,6 +90,73 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
   if (!file) throw std::runtime_error("cannot write " + path + " (disk full or no permission?)");
 }
 
+// What the analysis chose from the recording and why (SettingsFromRecording), or the settings as configured.
+void emitSettings(YAML::Emitter& out, const IdentificationConfig& config, const std::optional<SettingsChoice>& choice) {
+  static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
+  out << YAML::Key << "settings" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "chosen_from_recording" << YAML::Value << choice.has_value();
+  if (!choice) {
+    for (const auto& [key, value] : {std::pair<const char*, double>{"sample_period", config.resampler.sample_period},
+                                     {"moving_average_width", config.moving_average_width},
+                                     {"derivative_width", config.derivative_width},
+                                     {"identification_period", config.identification_period}}) {
+      out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value
+          << value << YAML::Key << "source" << YAML::Value << "fixed" << YAML::EndMap;
+    }
+    out << YAML::EndMap;
+    return;
+  }
+  for (const ChosenSetting& setting : choice->settings) {
+    out << YAML::Key << setting.key << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value"
+        << YAML::Value << setting.value << YAML::Key << "source" << YAML::Value
+        << (setting.configured ? "configured" : "chosen") << YAML::Key << "reason" << YAML::Value << setting.reason
+        << YAML::EndMap;
+  }
+  if (std::isfinite(choice->resolution_error)) {
+    out << YAML::Key << "resolution_error" << YAML::Value << choice->resolution_error;
+  }
+  if (std::isfinite(choice->numerical_error)) {
+    out << YAML::Key << "numerical_error" << YAML::Value << choice->numerical_error;
+  }
+  if (!choice->resolution_limit.empty()) out << YAML::Key << "resolution_limit" << YAML::Value << choice->resolution_limit;
+  out << YAML::Key << "free_run_spool" << YAML::Value
+      << (choice->config.valve_model_drives_free_run ? "valve_model"
+                                                     : (choice->survey.spool_measured ? "measured" : "configured_valve_model"));
+  out << YAML::Key << "study" << YAML::Value << YAML::BeginSeq;
+  for (const ResolutionCandidate& c : choice->study) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "sample_period" << YAML::Value << c.sample_period;
+    if (std::isfinite(c.simulation_error_rms)) out << YAML::Key << "simulation_error_rms" << YAML::Value << c.simulation_error_rms;
+    if (std::isfinite(c.change_to_finer)) out << YAML::Key << "change_to_finer" << YAML::Value << c.change_to_finer;
+    if (std::isfinite(c.bulk_modulus)) out << YAML::Key << "bulk_modulus" << YAML::Value << c.bulk_modulus;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  const RecordingSurvey& survey = choice->survey;
+  out << YAML::Key << "survey" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "seconds" << YAML::Value << survey.seconds;
+  out << YAML::Key << "message_intervals" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  for (int s = 0; s < kInputStreamCount; ++s) out << YAML::Key << kNames[s] << YAML::Value << survey.message_interval[s];
+  out << YAML::EndMap;
+  out << YAML::Key << "pressure_noise" << YAML::Value << survey.pressure_noise;
+  out << YAML::Key << "cycles" << YAML::Value << survey.cycles;
+  out << YAML::Key << "shortest_drawing" << YAML::Value << survey.shortest_drawing;
+  out << YAML::EndMap;
+  if (choice->valve) {
+    const ValveOperationFit& v = *choice->valve;
+    out << YAML::Key << "valve_from_operation" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "used" << YAML::Value << choice->valve_from_operation;
+    out << YAML::Key << "natural_frequency" << YAML::Value << v.parameters.natural_frequency;
+    out << YAML::Key << "damping" << YAML::Value << v.parameters.damping;
+    out << YAML::Key << "gain" << YAML::Value << v.parameters.gain;
+    out << YAML::Key << "dead_time" << YAML::Value << v.parameters.dead_time;
+    out << YAML::Key << "residual_rms" << YAML::Value << v.residual_rms;
+    out << YAML::Key << "noise" << YAML::Value << v.noise_sigma;
+    out << YAML::EndMap;
+  }
+  out << YAML::Key << "seconds_spent" << YAML::Value << choice->seconds_spent;
+  out << YAML::EndMap;
+}
+
 std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r) {
   static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
   YAML::Emitter out;
@@ -133,6 +204,8 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   }
   out << YAML::EndMap;
 
+  emitSettings(out, config, r.settings);
+
   out << YAML::Key << "model" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "effects" << YAML::Value << YAML::Flow << r.effects;
   out << YAML::Key << "regression_form" << YAML::Value << regressionFormName(config.regression_form);
@@ -140,6 +213,16 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   // Only what was computed: no initial values shown as estimates, no 0 for an error that was not measured.
   out << YAML::Key << "parameters" << YAML::Value;
   emitParameters(out, r.model.updates > 0 ? r.model.parameters : std::vector<IdentifiedParameter>());
+  if (r.output_error) {
+    // The parameters are the equation-error fit's, refined by the free run's error where that fell.
+    out << YAML::Key << "refined_by_free_run" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "used" << YAML::Value << r.output_error->improved;
+    out << YAML::Key << "free_run_error_before" << YAML::Value << r.output_error->start_rms;
+    out << YAML::Key << "free_run_error_after" << YAML::Value << r.output_error->rms;
+    out << YAML::Key << "samples" << YAML::Value << r.output_error->samples;
+    out << YAML::Key << "message" << YAML::Value << r.output_error->message;
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
 
   out << YAML::Key << "fit" << YAML::Value << YAML::BeginMap;
@@ -223,6 +306,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   }
   if (r.ranking.noise_rms > 0.0) out << YAML::Key << "noise_rms" << YAML::Value << r.ranking.noise_rms;
   out << YAML::Key << "residual_unexplained" << YAML::Value << r.ranking.residual_unexplained;
+  out << YAML::Key << "resolution_limited" << YAML::Value << r.ranking.resolution_limited;
   out << YAML::Key << "conclusion" << YAML::Value << r.ranking.conclusion;
   out << YAML::EndMap;
 

@@ -27,6 +27,8 @@
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/analysis/settings_from_recording.h"
+#include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
 
 namespace die_cushion_ident {
@@ -34,7 +36,7 @@ namespace {
 
 const char* kUsage =
     "usage: analyze_bag BAG --out DIR [--config FILE.yaml] [--effects a,b] [--custom-effect NAME=EXPR]... "
-    "[--propose] [--jobs N] [--quiet]\n"
+    "[--propose] [--fixed-settings] [--jobs N] [--quiet]\n"
     "  Identifies the die cushion's hydraulics and valve from a recorded bag and writes DIR/summary.yaml,\n"
     "  DIR/analysis.bag and CSV files. Library effects: leakage, entrained_air, valve_overlap, "
     "tank_pressure.\n"
@@ -42,6 +44,9 @@ const char* kUsage =
     "  README's configuration table, effects, custom_effects and topics: {pressure, position, valve}.\n"
     "  --propose searches formulas for the error the library leaves even when it is not structured (by\n"
     "  default the search runs only when it is).\n"
+    "  The sample period, filter widths and identification period are chosen from the recording's first\n"
+    "  seconds (the settings study run on it; summary.yaml settings: says what and why) unless configured;\n"
+    "  --fixed-settings takes the configured (or the paper's default) values as they are.\n"
     "  --jobs N: threads for the effect ranking (default: one per core; analyze_trend runs bags side by side\n"
     "  with one each).\n";
 
@@ -52,6 +57,7 @@ struct Options {
   int jobs = 0;  // threads for the effect ranking; 0: one per core
   bool quiet = false;
   bool propose = false;
+  bool fixed_settings = false;  // no survey: the configured (or default) settings as they are
 };
 
 [[noreturn]] void fail(int code, const std::string& message) {
@@ -72,6 +78,7 @@ Options parseArguments(int argc, char** argv) {
       .option("--custom-effect", [&](const std::string& v) { o.custom_effects.push_back(v); })
       .flag("--quiet", [&] { o.quiet = true; })
       .flag("--propose", [&] { o.propose = true; })
+      .flag("--fixed-settings", [&] { o.fixed_settings = true; })
       .wholeNumber("--jobs", 1, 256, &o.jobs)
       .positional("bag", 1, [&](const std::string& v) { o.bag = v; });
   arguments.parseOrExit(argc, argv, "analyze_bag", kUsage);
@@ -97,8 +104,17 @@ struct BagPass {
 
 // Feeds the input topics of `path` to `analysis` in recorded order (BagStreamReader: memory independent of
 // the recording's length, damage ends the reading with a reason); counts per topic in `input`.
+// Where the messages go: first to the survey that chooses the settings, then to the analysis built with them.
+class MessageSink {
+ public:
+  virtual ~MessageSink() = default;
+  /// [s] how long the bag's index says the recording is (a hint for reserving memory).
+  virtual void expect(double seconds) = 0;
+  virtual void push(InputStream stream, const StreamSample& sample) = 0;
+};
+
 BagPass readInputs(const std::string& path, const std::string names[], const std::string& joint_name,
-                   OfflineAnalysis& analysis, AnalysisInput& input, const std::function<void(const std::string&)>& log) {
+                   MessageSink& analysis, AnalysisInput& input, const std::function<void(const std::string&)>& log) {
   static const char* const kTypes[kInputStreamCount] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
                                                        "die_cushion_ident/ValveSignal"};
   static const std::string kMd5[kInputStreamCount] = {
@@ -115,7 +131,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   }
   pass.file_size = reader->fileSize();
   // A hint from the index, bounded by what the file can hold (a message is at least ~40 bytes on disk).
-  analysis.reserve(reader->indexedSpan(), 48 * 3600.0);
+  analysis.expect(reader->indexedSpan());
   log("reading " + std::to_string(pass.file_size >> 20) + " MB from " + input.bag);
   for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = input.unusable[s] = 0;
   auto last_report = std::chrono::steady_clock::now();
@@ -208,6 +224,79 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   return pass;
 }
 
+// The survey keeps the recording's first seconds; once it is complete (or the bag ends) it chooses the
+// settings, and the analysis starts with them on what was kept, then takes the rest as it comes.
+class SurveyThenAnalysis : public MessageSink {
+ public:
+  SurveyThenAnalysis(const IdentificationConfig& config, const std::set<std::string>& configured, bool survey, int jobs,
+                     const std::function<void(const std::string&)>& log)
+      : config_(config), jobs_(jobs), log_(log) {
+    if (survey) {
+      survey_ = std::make_unique<SettingsFromRecording>(config, configured);
+    } else {
+      start(config);
+    }
+  }
+  void expect(double seconds) override {
+    expected_ = seconds;
+    if (analysis_) analysis_->reserve(expected_, 48 * 3600.0);
+  }
+  void push(InputStream stream, const StreamSample& sample) override {
+    if (analysis_) {
+      analysis_->push(stream, sample);
+    } else if (!survey_->push(stream, sample)) {
+      chooseAndStart();
+    }
+  }
+  /// The analysis, its settings chosen (at the end of a recording shorter than the survey, now).
+  OfflineAnalysis& analysis() {
+    if (!analysis_) chooseAndStart();
+    return *analysis_;
+  }
+  const std::optional<SettingsChoice>& choice() const { return choice_; }
+  const IdentificationConfig& config() const { return config_; }
+
+ private:
+  void start(const IdentificationConfig& config) {
+    config_ = config;
+    analysis_ = std::make_unique<OfflineAnalysis>(config_);
+    analysis_->setJobs(jobs_);
+    if (expected_ > 0.0) analysis_->reserve(expected_, 48 * 3600.0);
+  }
+  void chooseAndStart() {
+    log_("choosing the sample period and filters from the recording's first " +
+         formatted("%.0f s", survey_->messages().empty() ? 0.0
+                                                          : survey_->messages().back().second.stamp -
+                                                                survey_->messages().front().second.stamp));
+    choice_ = survey_->choose();
+    for (const auto& setting : choice_->settings) {
+      log_(setting.key + " = " + formatted("%g", setting.value) + ": " + setting.reason);
+    }
+    start(choice_->config);
+    for (const auto& [stream, sample] : survey_->messages()) analysis_->push(stream, sample);
+    survey_.reset();
+  }
+
+  IdentificationConfig config_;
+  int jobs_;
+  std::function<void(const std::string&)> log_;
+  std::unique_ptr<SettingsFromRecording> survey_;
+  std::unique_ptr<OfflineAnalysis> analysis_;
+  std::optional<SettingsChoice> choice_;
+  double expected_ = 0.0;
+};
+
+// The analysis with settings already chosen (a second reading).
+class DirectAnalysis : public MessageSink {
+ public:
+  explicit DirectAnalysis(OfflineAnalysis& analysis) : analysis_(analysis) {}
+  void expect(double seconds) override { analysis_.reserve(seconds, 48 * 3600.0); }
+  void push(InputStream stream, const StreamSample& sample) override { analysis_.push(stream, sample); }
+
+ private:
+  OfflineAnalysis& analysis_;
+};
+
 std::string milliseconds(double seconds) {
   char text[32];
   std::snprintf(text, sizeof(text), "%+.2f ms", seconds * 1e3);
@@ -259,9 +348,12 @@ int run(int argc, char** argv) {
   for (int s = 0; s < kInputStreamCount; ++s) input.topics[s] = names[s];
   const auto started = std::chrono::steady_clock::now();
 
-  auto analysis = std::make_unique<OfflineAnalysis>(config);
-  analysis->setJobs(options.jobs);
-  BagPass pass = readInputs(options.bag, names, topics.joint_name, *analysis, input, log);
+  const std::set<std::string> configured(keys.begin(), keys.end());
+  SurveyThenAnalysis surveyed(config, configured, !options.fixed_settings, options.jobs, log);
+  BagPass pass = readInputs(options.bag, names, topics.joint_name, surveyed, input, log);
+  OfflineAnalysis* analysis = &surveyed.analysis();
+  config = surveyed.config();
+  std::unique_ptr<OfflineAnalysis> reread;
   if (pass.present.empty()) {
     fail(3, "none of the input topics " + names[0] + ", " + names[1] + ", " + names[2] + " is in '" + options.bag +
                 "'; it holds:" + (pass.listing.empty() ? std::string("\n  (nothing: the bag is empty)") : pass.listing) +
@@ -270,19 +362,27 @@ int run(int argc, char** argv) {
   if (input.messages[1] > 0 && pass.joint_missing == input.messages[1]) {
     fail(3, "no position message holds the cushion's joint: " + pass.joint_problem);
   }
-  // Topics stamped by different clocks: estimate the offsets from the physics and read the bag again
-  // with the stamps corrected (only when they matter, so a well-stamped bag is read once).
+  // Topics stamped by different clocks: the survey estimated the offsets on the recording's first seconds
+  // and the analysis ran on corrected stamps. Without a survey (or where it could not tell), they are
+  // estimated on the whole recording, which is read again with the stamps corrected where they matter.
   std::optional<TopicDelayEstimate> delays;
-  if (!config.topicDelaysSet()) {
+  bool delays_applied = false;
+  if (surveyed.choice() && surveyed.choice()->delays && surveyed.choice()->delays->valid) {
+    delays = surveyed.choice()->delays;
+    delays_applied = surveyed.choice()->delays_applied;
+  } else if (!config.topicDelaysSet()) {
     log("estimating the clock offsets between the topics");
     delays = analysis->estimateTopicDelays();
     if (delays->significant(config.resampler.sample_period)) {
+      delays_applied = true;
       config.topic_delays = delays->delays;
       log("position stamps " + milliseconds(delays->delays[1]) + ", valve stamps " +
           milliseconds(delays->delays[2]) + " against pressure: reading again with the stamps corrected");
-      analysis = std::make_unique<OfflineAnalysis>(config);
-      analysis->setJobs(options.jobs);
-      pass = readInputs(options.bag, names, topics.joint_name, *analysis, input, log);
+      reread = std::make_unique<OfflineAnalysis>(config);
+      reread->setJobs(options.jobs);
+      analysis = reread.get();
+      DirectAnalysis sink(*analysis);
+      pass = readInputs(options.bag, names, topics.joint_name, sink, input, log);
     }
   }
   input.duration = std::isfinite(pass.last - pass.first) ? pass.last - pass.first : 0.0;
@@ -323,6 +423,7 @@ int run(int argc, char** argv) {
   }
 
   analysis->proposeAlways(options.propose);
+  if (surveyed.choice()) analysis->setResolution(surveyed.choice()->resolution_error, surveyed.choice()->resolution_remedy);
   const auto tell = [&](const std::string& step) {
     char elapsed[32];
     std::snprintf(elapsed, sizeof(elapsed), "%.1f s: ",
@@ -340,20 +441,32 @@ int run(int argc, char** argv) {
   }
   analysis->explain(&result, tell);
   result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
+  if (surveyed.choice()) {
+    result.settings = surveyed.choice();
+    for (const auto& w : result.settings->warnings) result.warnings.push_back(w);
+    if (!result.settings->resolution_limit.empty()) result.warnings.push_back(result.settings->resolution_limit);
+    if (result.settings->valve_from_operation && result.valve_model_source == "configured") {
+      result.valve_model_source = "operation";
+    }
+  }
   if (delays) {
     result.delay_estimate = delays;
     if (delays->valid) {
-      // Offsets below a quarter sample are reported but not corrected: they change nothing measurable.
-      result.topic_delays_source = delays->significant(config.resampler.sample_period)
-                                       ? "estimated"
-                                       : "estimated, below a quarter sample period: not corrected";
+      // Offsets the data cannot tell from 0 are reported but not corrected.
+      result.topic_delays_source = delays_applied ? "estimated" : "estimated, indistinguishable from 0: not corrected";
       for (int s = 1; s < kInputStreamCount; ++s) {
-        if (std::abs(delays->delays[s]) > kLargeTopicDelay) {
+        if (std::abs(delays->delays[s]) > kLargeTopicDelay && delays_applied) {
           result.warnings.push_back(std::string("the ") + inputStreamName(static_cast<InputStream>(s)) +
                                     " topic's stamps are " + milliseconds(delays->delays[s]) +
                                     " off the pressure's (estimated from the data and corrected): its "
                                     "driver stamps on receipt or by another clock; set topic_delays to "
                                     "fix the value, or stamp at the measurement");
+        } else if (std::abs(delays->delays[s]) > kLargeTopicDelay) {
+          result.warnings.push_back(std::string("the ") + inputStreamName(static_cast<InputStream>(s)) +
+                                    " topic's stamps look " + milliseconds(delays->delays[s]) +
+                                    " off the pressure's, but the recording cannot tell that from none (+-" +
+                                    milliseconds(delays->resolution[s]).substr(1) +
+                                    "): not corrected; set topic_delays if you know the offset");
         }
       }
     } else {

@@ -222,6 +222,16 @@ HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& im
     return {Verdict::kInconclusive, "; only " + std::to_string(test.cycles) + " held-out cycles"};
   }
   if (test.error_reduction >= options.missing_reduction && test.significant) {
+    // The gain in mean square error against the analysis's own: a model that only fits the grid's error
+    // better is the product's resolution, not physics.
+    const double gain = std::sqrt(std::max(test.base_rms * test.base_rms - test.with_rms * test.with_rms, 0.0));
+    if (options.resolution_error > 0.0 && gain <= 2.0 * options.resolution_error) {
+      return {Verdict::kInconclusive,
+              "; " + reduction + " less held-out error (" + formatted("%.2f bar", 1e-5 * gain) +
+                  "), but within twice the analysis's own resolution error of " +
+                  formatted("%.2f bar", 1e-5 * options.resolution_error) + ": resolution-limited" +
+                  (options.resolution_remedy.empty() ? std::string() : "; " + options.resolution_remedy)};
+    }
     return {Verdict::kMissing, "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
   }
   if (test.error_reduction < options.not_needed_reduction) {
@@ -241,6 +251,12 @@ std::string holmDemotion(double error_reduction, double p_value, bool rejected, 
 
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
   return std::max(options.unexplained_noise_factor * noise_rms, 1e5);
+}
+
+bool withinResolution(double error_rms, double noise_rms, const EffectRankingOptions& options) {
+  if (!(options.resolution_error > 0.0)) return false;
+  const double structured = std::sqrt(std::max(error_rms * error_rms - noise_rms * noise_rms, 0.0));
+  return structured <= 2.0 * options.resolution_error;
 }
 
 EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
@@ -298,7 +314,9 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   ranking.recommended_held_out = current;
   ranking.recommended_effects = model.effects;
 
-  ranking.residual_unexplained = enough && ranking.best_error_rms > floor;
+  ranking.resolution_limited = enough && ranking.best_error_rms > options.staircase_noise_factor * ranking.noise_rms &&
+                               withinResolution(ranking.best_error_rms, ranking.noise_rms, options);
+  ranking.residual_unexplained = enough && ranking.best_error_rms > floor && !ranking.resolution_limited;
   const std::string held_out_path = [&] {
     std::string text = formatted("%.1f", ranking.base_error_rms * 1e-5);
     for (const auto& step : ranking.steps) text += " -> " + formatted("%.1f", step.held_out_error_rms * 1e-5);
@@ -308,6 +326,13 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
     ranking.conclusion = "Too few complete press cycles (" + std::to_string(cycles) + ", need " +
                          std::to_string(options.min_held_out_cycles) +
                          ") to judge effects on held-out cycles.";
+  } else if (ranking.resolution_limited) {
+    ranking.conclusion =
+        std::string(ranking.steps.empty() ? "" : "Add " + quotedList(ranking.steps) + " (" + held_out_path + "). ") +
+        "The error left (" + formatted("%.2f bar rms", ranking.best_error_rms * 1e-5) + " on held-out cycles, noise " +
+        formatted("%.2f bar", ranking.noise_rms * 1e-5) + ") is within the analysis's own resolution error (" +
+        formatted("%.2f bar", options.resolution_error * 1e-5) + "): resolution-limited, no effect is named" +
+        (options.resolution_remedy.empty() ? std::string(".") : "; " + options.resolution_remedy + ".");
   } else if (!ranking.steps.empty() && !ranking.residual_unexplained) {
     ranking.conclusion = ranking.steps.size() == 1
                              ? "Add the effect " + quotedList(ranking.steps) + ": it explains the remaining error (" +

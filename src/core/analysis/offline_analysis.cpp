@@ -11,6 +11,14 @@
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
+
+namespace die_cushion_ident {
+namespace {
+// The free run refined by its own error is kept up to this multiple of the pressure noise.
+constexpr double kRefinedNoiseFactor = 2.5;
+}  // namespace
+}  // namespace die_cushion_ident
 
 namespace die_cushion_ident {
 
@@ -322,6 +330,36 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
     // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
   } else if (r.hydraulics) {
+    // Refined by the free run's error where that lowers it, unless the fit is implausible (then the
+    // model does not describe the recording, and fitting its free run would hide that).
+    if (!r.partial) {
+      tell("refining the parameters by the free run's error");
+      r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),
+                                           config_.min_pressure);
+      // Kept only where it brings the free run to the sensor's noise: then the equation-error fit's
+      // resolution was all that was left. Where a structured error remains, the model lacks something;
+      // refining it would spread that error over the stroke (a missing leakage's hold moved into the
+      // impact), and the equation-error estimate shows where it is made.
+      WhiteNoiseEstimator noise(4);
+      for (std::size_t i = 1; i + 1 < grid_.size(); ++i) noise.add(grid_[i - 1].p, grid_[i].p, grid_[i + 1].p);
+      const double sigma = noise.sigma();
+      if (r.output_error->improved && !(std::isfinite(sigma) && r.output_error->rms <= kRefinedNoiseFactor * sigma)) {
+        r.output_error->improved = false;
+        r.output_error->message += formatted("; not kept: %.2f times the pressure noise (%.3g bar) remain, more than "
+                                             "%.1f: the model lacks something, and the equation-error estimate "
+                                             "shows where",
+                                             r.output_error->rms / sigma, 1e-5 * sigma, kRefinedNoiseFactor);
+      }
+      if (r.output_error->improved) {
+        for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
+          r.model.parameters[i].value = r.output_error->theta(static_cast<Eigen::Index>(i));
+          // The larger of the two stds: the free run's sandwich sees only the residuals' scatter, not the
+          // bias the noisy inputs (position, spool) drive into it (on fast presses its stds were a third of
+          // the errors); the equation-error std is calibrated (doc/equations.md, "Uncertainty").
+          r.model.parameters[i].std = std::max(r.model.parameters[i].std, r.output_error->std(static_cast<Eigen::Index>(i)));
+        }
+      }
+    }
     const ParameterVector theta = r.model.values();
     tell("running the model free against the measurement");
     r.assessment = assessModel(grid_, r.strokes, model, theta, config_.min_pressure);
@@ -346,6 +384,8 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
     tell("trying the library's other effects on held-out cycles");
     EffectRankingOptions ranking_options;
     ranking_options.jobs = jobs_;
+    ranking_options.resolution_error = resolution_error_;
+    ranking_options.resolution_remedy = resolution_remedy_;
     r.ranking = rankEffects(grid_, r.strokes, config_, ranking_options);
     if (r.ranking.residual_unexplained || always_propose_) {
       tell("searching for a formula for the error the library leaves");

@@ -76,6 +76,9 @@ struct EffectRankingResult {
   std::vector<std::string> recommended_effects;  ///< the configured effects plus `steps`
   /// The error left by the best model is well above the noise: something the library does not describe.
   bool residual_unexplained = false;
+  /// The error left is above the noise but within the analysis's own resolution error: no effect is named,
+  /// the remedy is (EffectRankingOptions::resolution_remedy).
+  bool resolution_limited = false;
   std::string conclusion;  ///< what to do, in one or two sentences
 };
 
@@ -90,6 +93,12 @@ struct EffectRankingOptions {
   double staircase_noise_factor = 4.0;
   /// Threads for the candidates' fits and free runs, which are independent (0: one per core).
   int jobs = 0;
+  /// [Pa] the analysis's own error at its sample period (SettingsFromRecording: how far the free run moves
+  /// when the period halves): an extension whose gain in mean square error is within twice it, or a
+  /// structured residual of that size, is the product's resolution, not physics. 0: not known.
+  double resolution_error = 0.0;
+  /// What to do about it, in words ("record pressure, position and valve at 4 kHz or more").
+  std::string resolution_remedy;
   /// Cycles [0, split) and [split, cycles) are the two folds.
   int split(int cycles) const { return cycles / 2; }
 };
@@ -102,8 +111,9 @@ struct HeldOutVerdict {
 
 /// The rule every extension (library effect, pair, formula) is judged by: a fit outside the physical range
 /// (`implausible`: its reason, or empty) is not_needed; too few held-out cycles inconclusive; at least
-/// missing_reduction less held-out error and significant missing; below not_needed_reduction not_needed;
-/// else inconclusive. `removes` words the missing reason ("it removes", "together they remove").
+/// missing_reduction less held-out error and significant missing, unless its gain in mean square error is
+/// within twice the analysis's resolution error (then inconclusive, "resolution-limited"); below
+/// not_needed_reduction not_needed; else inconclusive. `removes` words the missing reason ("it removes", "together they remove").
 HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& implausible,
                             const EffectRankingOptions& options, const std::string& removes = "it removes");
 
@@ -114,6 +124,8 @@ std::string holmDemotion(double error_reduction, double p_value, bool rejected, 
 
 /// The held-out error above which the error left is "structured": a multiple of the noise, and 1 bar.
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options);
+/// Whether an error of `error_rms` [Pa] left above the noise is within twice the analysis's resolution error.
+bool withinResolution(double error_rms, double noise_rms, const EffectRankingOptions& options);
 
 /// Tries every library effect that `config` does not use as an extension of the model, and adds the
 /// missing ones one at a time (EffectRankingResult::steps).

@@ -10,6 +10,8 @@
 #include "die_cushion_ident/core/analysis/effect_ranking.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/analysis/output_error_refinement.h"
+#include "die_cushion_ident/core/analysis/settings_from_recording.h"
 #include "die_cushion_ident/core/valve/recorded_sweep.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/signal/topic_delay_estimator.h"
@@ -45,6 +47,8 @@ struct OfflineResult {
   /// The model fitted to the whole recording without forgetting (the best constant parameters); the
   /// online estimate with forgetting is in `estimates`.
   HydraulicEstimate model;
+  /// The refinement of `model` by the free run's error (its values and stds are then `model`'s), when run.
+  std::optional<OutputErrorFit> output_error;
   bool hydraulics = false;  ///< pressure and position were there to identify the hydraulics
   StrokeSegmentation strokes;
   ModelAssessment assessment;
@@ -63,6 +67,8 @@ struct OfflineResult {
   std::optional<TopicDelayEstimate> delay_estimate;  ///< when estimated from the data
   std::uint64_t derived_velocity_samples = 0;       ///< grid samples whose velocity came from the position
   std::vector<std::string> warnings;
+  /// The settings chosen from the recording (analyze_bag's survey), when they were.
+  std::optional<SettingsChoice> settings;
   /// Part of the analysis could not run (no complete stroke, no usable sample, an implausible parameter):
   /// the reasons are in `warnings`; analyze_bag exits with 5.
   bool partial = false;
@@ -101,6 +107,12 @@ class OfflineAnalysis {
   explicit OfflineAnalysis(const IdentificationConfig& config);
   /// Threads for the effect ranking's candidates (0, the default: one per core).
   void setJobs(int jobs) { jobs_ = jobs; }
+  /// The analysis's own resolution error [Pa] at its sample period and what to do about it (from
+  /// SettingsFromRecording): the ranking names no effect for an error of that size.
+  void setResolution(double error, const std::string& remedy) {
+    resolution_error_ = std::isfinite(error) ? error : 0.0;
+    resolution_remedy_ = remedy;
+  }
 
   void push(InputStream stream, const StreamSample& sample);
   /// Reserves the grid for a recording of about `seconds` (a hint: growth by doubling would hold up to twice
@@ -128,6 +140,8 @@ class OfflineAnalysis {
  private:
   IdentificationConfig config_;
   int jobs_ = 0;
+  double resolution_error_ = 0.0;
+  std::string resolution_remedy_;
   IdentificationPipeline pipeline_;
   std::vector<GridSample> grid_;
   std::vector<ValveSample> valve_;

@@ -1,0 +1,106 @@
+#pragma once
+
+#include <array>
+#include <optional>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/valve/valve_operation_fit.h"
+
+namespace die_cushion_ident {
+
+/// What the first seconds of a recording say about the resolution the analysis needs.
+struct RecordingSurvey {
+  double seconds = 0.0;  ///< [s] of stamps surveyed
+  std::array<double, kInputStreamCount> message_interval = {0.0, 0.0, 0.0};  ///< [s] median per topic
+  double pressure_noise = 0.0;  ///< [Pa] white noise of the pressure messages
+  int cycles = 0;               ///< complete press cycles in the survey
+  double shortest_drawing = 0.0;  ///< [s] the shortest drawing phase seen (0: none)
+  bool spool_measured = false;
+};
+
+/// One candidate sample period of the resolution study: the model identified once on the survey at the
+/// finest period, run free on this period's grid.
+struct ResolutionCandidate {
+  double sample_period = 0.0;       ///< [s]
+  double simulation_error_rms = 0.0;  ///< [Pa] free run against the measurement
+  /// [Pa] rms difference of its free run from the next finer period's (same parameters), at the
+  /// samples both have; NaN for the finest. This is the resolution's share of the error: a free run that
+  /// is resolved no longer changes as the period halves.
+  double change_to_finer = std::numeric_limits<double>::quiet_NaN();
+  double bulk_modulus = 0.0;  ///< [Pa] of the one fit the study runs (for the report)
+};
+
+/// A setting the analysis chose (or took from the configuration), and why.
+struct ChosenSetting {
+  std::string key;
+  double value = 0.0;
+  bool configured = false;  ///< the user's value, kept
+  std::string reason;
+};
+
+/// The settings chosen for a recording.
+struct SettingsChoice {
+  IdentificationConfig config;  ///< the configuration with the chosen settings
+  RecordingSurvey survey;
+  std::vector<ChosenSetting> settings;  ///< sample_period, moving_average_width, derivative_width, identification_period
+  std::vector<ResolutionCandidate> study;  ///< coarsest first
+  std::optional<ValveOperationFit> valve;  ///< the valve model fitted to the survey's operation (spool measured)
+  /// The topics' clock offsets estimated on the survey at the finest period the recording supports (where
+  /// topic_delays is not configured), and whether they were applied (distinguishable from 0).
+  std::optional<TopicDelayEstimate> delays;
+  bool delays_applied = false;
+  bool valve_from_operation = false;       ///< that fit replaced the configured valve model
+  /// [Pa] the free run's change from the chosen period to half of it: its own resolution error.
+  double resolution_error = 0.0;
+  /// [Pa] the free run's numerical error at the chosen period: its difference from a run with a twenty times
+  /// tighter tolerance.
+  double numerical_error = std::numeric_limits<double>::quiet_NaN();
+  /// Non-empty when the recording's rates, not the analysis, limit the resolution: the finding in words and
+  /// what to record instead (resolution_remedy alone).
+  std::string resolution_limit;
+  std::string resolution_remedy;
+  std::vector<std::string> warnings;  ///< a configured value that biases the result on this recording
+  double seconds_spent = 0.0;          ///< [s] wall time of choose()
+};
+
+/// The paper's settings study (§5) run on the recording itself, before the analysis: the first
+/// `survey_seconds` of messages are kept; their message rates, pressure noise and press cycles are surveyed,
+/// the valve model is fitted to the commands and spool of operation (when the spool is measured), the
+/// topics' clock offsets are estimated at the finest period the recording supports (a 2 ms grid left a
+/// small stiff chamber's 0.5 ms off), and the model is identified and run free at 2, 1, 0.5 and 0.25 ms (no finer than half the finest topic's message
+/// interval). The coarsest sample period whose free run changes by less than kResolutionShare of the
+/// pressure noise when the period halves is chosen: a coarser grid throws away what the recording holds (a
+/// fast press's 4 ms impact on the paper's 2 ms grid), a finer one only costs. The filters keep the paper's
+/// windows in time (62 ms moving average, 50 ms derivative: 31 and 25 samples at 2 ms), shortened to half
+/// the shortest drawing phase; the identification period stays 10 ms. Settings the user configured are kept
+/// and judged against the study (a warning where they leave a resolution error above the share).
+class SettingsFromRecording {
+ public:
+  static constexpr double kResolutionShare = 0.25;
+  SettingsFromRecording(const IdentificationConfig& config, std::set<std::string> configured_keys,
+                        double survey_seconds = 24.0, std::size_t max_messages = 400000);
+
+  /// Keeps a message for the survey; false once the survey is complete (later messages are not kept).
+  bool push(InputStream stream, const StreamSample& sample);
+  bool complete() const { return complete_; }
+  /// The study on what was kept (whatever there is, at the end of a short recording).
+  SettingsChoice choose() const;
+  /// The kept messages in arrival order, for the analysis to start with.
+  const std::vector<std::pair<InputStream, StreamSample>>& messages() const { return messages_; }
+
+ private:
+  IdentificationConfig config_;
+  std::set<std::string> configured_;
+  double survey_seconds_;
+  std::size_t max_messages_;
+  std::vector<std::pair<InputStream, StreamSample>> messages_;
+  double first_stamp_ = std::numeric_limits<double>::quiet_NaN();
+  bool complete_ = false;
+};
+
+}  // namespace die_cushion_ident

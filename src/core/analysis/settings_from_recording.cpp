@@ -1,0 +1,447 @@
+#include "die_cushion_ident/core/analysis/settings_from_recording.h"
+
+#include <algorithm>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <unordered_map>
+
+#include "die_cushion_ident/core/analysis/free_run_pressure.h"
+#include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
+#include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
+#include "die_cushion_ident/core/util/formatted.h"
+
+namespace die_cushion_ident {
+
+namespace {
+
+using Messages = std::vector<std::pair<InputStream, StreamSample>>;
+
+// The paper's filter windows in time (31 and 25 samples at 2 ms) and identification period.
+constexpr double kMovingAverageWindow = 0.062;  // [s]
+constexpr double kDerivativeWindow = 0.050;     // [s]
+constexpr double kIdentificationPeriod = 0.010;  // [s]
+// The candidate periods: the paper's 2 ms halved down to 0.25 ms.
+constexpr double kCoarsestPeriod = 0.002;
+constexpr double kFinestPeriod = 0.00025;
+
+int oddSamples(double seconds, double period, int lowest) {
+  int n = static_cast<int>(std::lround(seconds / period));
+  if (n % 2 == 0) ++n;
+  return std::max(lowest, n);
+}
+
+double median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  auto middle = values.begin() + values.size() / 2;
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+// The configuration at `period` with the paper's windows in time, no longer than half the shortest drawing;
+// the velocity derived (where the position has none) over the same window at every period (a central
+// difference over 2 ms samples): a window that shrank with the period made the derived velocity noisier and
+// the free run's change look like a resolution error.
+IdentificationConfig atPeriod(IdentificationConfig c, double period, double shortest_drawing) {
+  c.resampler.sample_period = period;
+  c.velocity_window = std::max(c.velocity_window, 2.0 * period);
+  c.moving_average_width = oddSamples(kMovingAverageWindow, period, 1);
+  c.derivative_width = oddSamples(kDerivativeWindow, period, 3);
+  if (shortest_drawing > 0.0) {
+    const double span = (c.moving_average_width + c.derivative_width - 1) * period;
+    const double allowed = 0.5 * shortest_drawing;
+    if (span > allowed) {
+      const double shrink = allowed / span;
+      c.moving_average_width = oddSamples(shrink * kMovingAverageWindow, period, 1);
+      c.derivative_width = oddSamples(shrink * kDerivativeWindow, period, 3);
+    }
+  }
+  c.identification_period = period * std::max(1L, std::lround(kIdentificationPeriod / period));
+  return c;
+}
+
+std::vector<GridSample> gridAt(const IdentificationConfig& config, const Messages& messages) {
+  std::vector<GridSample> grid;
+  IdentificationPipeline pipeline(config);
+  pipeline.setGridCallback([&](const GridSample& g, const HydraulicIdentifier&) { grid.push_back(g); });
+  for (const auto& [stream, sample] : messages) pipeline.push(stream, sample);
+  pipeline.flush();
+  return grid;
+}
+
+// One sample period of the study: the survey on its grid, and one model run free on it.
+struct Level {
+  double period = 0.0;
+  std::vector<GridSample> grid;
+  StrokeSegmentation strokes;
+  std::vector<double> t, modelled;  // the free run, NaN where it is not running
+  double error_rms = std::numeric_limits<double>::quiet_NaN();
+  double numerical_error = std::numeric_limits<double>::quiet_NaN();  // [Pa] against a 20 times tighter run
+};
+
+Level levelAt(const IdentificationConfig& config, const Messages& messages) {
+  Level level;
+  level.period = config.resampler.sample_period;
+  level.grid = gridAt(config, messages);
+  level.strokes = segmentStrokes(level.grid);
+  return level;
+}
+
+// The shortest drawing phase (impact included) of the complete cycles [s], 0 where there is none.
+double shortestDrawing(const Level& level) {
+  double shortest = 0.0;
+  for (int c = 0; c < level.strokes.cycles; ++c) {
+    const auto [begin, end] = level.strokes.range(c, c);
+    std::size_t drawing = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      const StrokePhase phase = level.strokes.phase[i];
+      drawing += phase == StrokePhase::kDrawing || phase == StrokePhase::kImpact ? 1 : 0;
+    }
+    const double seconds = drawing * level.period;
+    if (seconds > 0.0 && (shortest == 0.0 || seconds < shortest)) shortest = seconds;
+  }
+  return shortest;
+}
+
+// The free run of `theta` on the level's grid, and its own numerical error (the same run with a twenty times
+// tighter tolerance).
+void runFree(const HydraulicModel& model, const ParameterVector& theta, double min_pressure, Level* level) {
+  const std::vector<GridSample>& grid = level->grid;
+  FreeRunPressure free_run(model, min_pressure), tight(model, min_pressure, FreeRunPressure::kDefaultTolerance / 20.0);
+  double sum = 0.0, difference = 0.0;
+  std::size_t n = 0;
+  level->t.assign(grid.size(), 0.0);
+  level->modelled.assign(grid.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    const GridSample* next = i + 1 < grid.size() ? &grid[i + 1] : nullptr;
+    const double p = free_run.step(grid[i], theta, next);
+    const double q = tight.step(grid[i], theta, next);
+    level->t[i] = grid[i].t;
+    if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(grid[i].p)) continue;
+    level->modelled[i] = p;
+    sum += (grid[i].p - p) * (grid[i].p - p);
+    if (std::isfinite(q)) difference += (p - q) * (p - q);
+    ++n;
+  }
+  if (n > 0) {
+    level->error_rms = std::sqrt(sum / n);
+    level->numerical_error = std::sqrt(difference / n);
+  }
+}
+
+// rms difference of two levels' free runs at the samples both have (the coarser grid's times lie on the finer).
+double changeBetween(const Level& coarse, const Level& fine, double fine_period) {
+  std::unordered_map<long long, double> at;
+  at.reserve(fine.t.size());
+  for (std::size_t i = 0; i < fine.t.size(); ++i) at[std::llround(fine.t[i] / fine_period)] = fine.modelled[i];
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < coarse.t.size(); ++i) {
+    const auto it = at.find(std::llround(coarse.t[i] / fine_period));
+    if (it == at.end()) continue;
+    const double d = coarse.modelled[i] - it->second;
+    if (!std::isfinite(d)) continue;
+    sum += d * d;
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+SettingsFromRecording::SettingsFromRecording(const IdentificationConfig& config, std::set<std::string> configured_keys,
+                                             double survey_seconds, std::size_t max_messages)
+    : config_(config), configured_(std::move(configured_keys)), survey_seconds_(survey_seconds),
+      max_messages_(max_messages) {}
+
+bool SettingsFromRecording::push(InputStream stream, const StreamSample& sample) {
+  if (complete_) return false;
+  messages_.emplace_back(stream, sample);
+  if (std::isfinite(sample.stamp)) {
+    if (std::isnan(first_stamp_)) first_stamp_ = sample.stamp;
+    if (sample.stamp - first_stamp_ >= survey_seconds_) complete_ = true;
+  }
+  if (messages_.size() >= max_messages_) complete_ = true;
+  return !complete_;
+}
+
+SettingsChoice SettingsFromRecording::choose() const {
+  const auto started = std::chrono::steady_clock::now();
+  SettingsChoice choice;
+  choice.config = config_;
+  RecordingSurvey& survey = choice.survey;
+
+  // Rates, pressure noise and the valve's operation.
+  std::array<std::vector<double>, kInputStreamCount> intervals;
+  std::array<double, kInputStreamCount> last = {NAN, NAN, NAN};
+  WhiteNoiseEstimator pressure_noise(1);
+  double recent[3] = {0.0, 0.0, 0.0};
+  int recent_count = 0;
+  std::vector<ValveSample> valve;
+  std::size_t valve_messages = 0;
+  double low = std::numeric_limits<double>::infinity(), high = -low;
+  for (const auto& [stream, m] : messages_) {
+    const int s = static_cast<int>(stream);
+    if (!std::isfinite(m.stamp) || !std::isfinite(m.first)) continue;
+    low = std::min(low, m.stamp);
+    high = std::max(high, m.stamp);
+    if (m.stamp > last[s]) intervals[s].push_back(m.stamp - last[s]);
+    if (!(m.stamp <= last[s])) last[s] = m.stamp;
+    if (stream == InputStream::kPressure) {
+      recent[0] = recent[1];
+      recent[1] = recent[2];
+      recent[2] = m.first;
+      if (++recent_count >= 3) pressure_noise.add(recent[0], recent[1], recent[2]);
+    } else if (stream == InputStream::kValve) {
+      ++valve_messages;
+      if (std::isfinite(m.second)) valve.push_back({m.stamp, m.first, m.second});
+    }
+  }
+  survey.seconds = high > low ? high - low : 0.0;
+  for (int s = 0; s < kInputStreamCount; ++s) survey.message_interval[s] = median(intervals[s]);
+  survey.pressure_noise = std::isfinite(pressure_noise.sigma()) ? pressure_noise.sigma() : 0.0;
+  survey.spool_measured = valve_messages > 0 && valve.size() * 2 > valve_messages;
+
+  const bool valve_configured = configured_.count("valve_natural_frequency") || configured_.count("valve_damping") ||
+                                configured_.count("valve_gain") || configured_.count("valve_dead_time");
+  if (!survey.spool_measured && !valve_configured) {
+    choice.warnings.push_back(formatted("the spool is not measured and no valve model is configured: the spool is "
+                                        "predicted by the default valve (%.0f Hz, damping %.2f, dead time %.2f ms), "
+                                        "and the free run is only as right as it. Configure the valve "
+                                        "(valve_natural_frequency, valve_damping, valve_gain, valve_dead_time) from "
+                                        "a sweep of this valve",
+                                        config_.valve.natural_frequency, config_.valve.damping,
+                                        1e3 * config_.valve.dead_time));
+  }
+
+  // The valve model that drives the free run and judges the port side: fitted to the operation where the
+  // spool is measured, unless it does not follow the spool better than the configured one.
+  if (survey.spool_measured) {
+    choice.valve = fitValveToOperation(valve, config_.valve, config_.resampler.max_gap);
+    if (choice.valve->success && choice.valve->residual_rms < choice.valve->start_residual_rms) {
+      choice.config.valve = choice.valve->parameters;
+      choice.config.valve_model_drives_free_run = true;
+      choice.valve_from_operation = true;
+      if (valve_configured && choice.valve->start_residual_rms > 1.5 * choice.valve->noise_sigma) {
+        choice.warnings.push_back(
+            "the configured valve model does not follow the measured spool (" +
+            formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
+                      choice.valve->noise_sigma) +
+            "): the analysis uses the one fitted to the recording's operation instead (" + choice.valve->message + ")");
+      }
+    }
+  }
+
+  // The resolution study: from the paper's 2 ms down, halving, never finer than the finest topic's messages
+  // (a grid between messages only interpolates them linearly, which undoes the free run's cubic inputs).
+  const double finest_interval = [&] {
+    double finest = std::numeric_limits<double>::infinity();
+    for (double i : survey.message_interval) {
+      if (i > 0.0) finest = std::min(finest, i);
+    }
+    return finest;
+  }();
+  const double noise = survey.pressure_noise > 0.0 ? survey.pressure_noise : 0.2e5;
+  const double allowed_change = kResolutionShare * noise;
+  std::vector<double> periods;
+  for (double period = kCoarsestPeriod; period >= kFinestPeriod * (1.0 - 1e-9); period *= 0.5) {
+    if (std::isfinite(finest_interval) && period < 0.9 * finest_interval) break;
+    periods.push_back(period);
+  }
+  if (periods.empty()) periods.push_back(kCoarsestPeriod);
+
+  // The clock offsets, at the finest period (the study below then runs on corrected stamps).
+  if (!config_.topicDelaysSet()) {
+    IdentificationConfig finest = atPeriod(choice.config, periods.back(), 0.0);
+    choice.delays = estimateTopicDelays(gridAt(finest, messages_), finest);
+    if (choice.delays->valid && choice.delays->distinguishable()) {
+      choice.config.topic_delays = choice.delays->delays;
+      choice.delays_applied = true;
+    } else if (choice.delays->valid) {
+      choice.config.topic_delays = {0.0, 0.0, 0.0};
+    }
+  }
+  // The model identified once, at the finest period, then run free at every period: how much the free run
+  // moves as the period halves is the grid's own error. (Each period's own fit moved with the period where the
+  // configured model lacked an effect: a missing tank pressure changed the free run by 0.75 bar between 2 and
+  // 1 ms; that is the model's error, told apart from the grid's by the ranking.)
+  std::vector<Level> levels(periods.size());
+  levels.back() = levelAt(atPeriod(choice.config, periods.back(), 0.0), messages_);
+  const double shortest_drawing = shortestDrawing(levels.back());
+  survey.cycles = levels.back().strokes.cycles;
+  survey.shortest_drawing = shortest_drawing;
+  const IdentificationConfig finest_config = atPeriod(choice.config, periods.back(), shortest_drawing);
+  const HydraulicEstimate fit = fitOnCycles(levels.back().grid, levels.back().strokes, finest_config, INT_MIN, INT_MAX);
+  const HydraulicModel model =
+      HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
+  // A configured model that lacks an effect the press has can fit to nonsense (a negative bulk modulus where
+  // the tank pressure is missing on a fast press); its free run then says nothing about the grid, and a
+  // resolution error read from it would hide the missing effect. Such a fit is not studied: the finest
+  // period the recording supports is taken, and no resolution error is claimed.
+  std::vector<std::string> uncertain;
+  const std::vector<std::string> implausible =
+      fit.updates > 0 ? implausibleParameters(model, fit, 3.0, &uncertain) : std::vector<std::string>();
+  const bool studied = fit.updates > 0 && fit.values().allFinite() && implausible.empty();
+  const ParameterVector theta = studied ? fit.values() : ParameterVector();
+  const auto level = [&](std::size_t k) -> Level& {
+    if (levels[k].grid.empty()) levels[k] = levelAt(atPeriod(choice.config, periods[k], shortest_drawing), messages_);
+    if (levels[k].t.empty()) runFree(model, theta, choice.config.min_pressure, &levels[k]);
+    return levels[k];
+  };
+  std::size_t chosen = 0;
+  bool resolved = false;
+  if (studied) {
+    // From 2 ms down, halving, until the free run stops changing or the recording's rate is reached.
+    chosen = periods.size() - 1;
+    for (std::size_t k = 0; k + 1 < periods.size(); ++k) {
+      ResolutionCandidate& c = choice.study.emplace_back();
+      c.sample_period = periods[k];
+      c.simulation_error_rms = level(k).error_rms;
+      c.change_to_finer = changeBetween(level(k), level(k + 1), periods[k + 1]);
+      if (std::isfinite(c.change_to_finer) && c.change_to_finer <= allowed_change) {
+        chosen = k;
+        resolved = true;
+        break;
+      }
+    }
+    if (!resolved) {
+      ResolutionCandidate& c = choice.study.emplace_back();
+      c.sample_period = periods.back();
+      c.simulation_error_rms = level(periods.size() - 1).error_rms;
+    }
+    for (ResolutionCandidate& c : choice.study) c.bulk_modulus = fit.parameters[HydraulicModel::kBulkModulus].value;
+  }
+  const double chosen_period =
+      studied ? periods[chosen] : (implausible.empty() ? config_.resampler.sample_period : periods.back());
+  if (resolved) {
+    choice.resolution_error = choice.study[chosen].change_to_finer;
+  } else if (studied) {
+    // The finest period the recording supports still changed, or nothing finer than 2 ms was possible: its
+    // own error by Richardson's estimate from coarser periods, change / (2^q - 1), the order q from the last
+    // two halvings (4 and 8 ms run for them where the study had fewer), between 1 and 4.
+    std::vector<double> changes;  // coarsest first, ending with the change into the chosen period
+    for (const ResolutionCandidate& c : choice.study) {
+      if (std::isfinite(c.change_to_finer)) changes.push_back(c.change_to_finer);
+    }
+    Level finer = level(0);
+    for (double coarse_period = 2.0 * kCoarsestPeriod; changes.size() < 2; coarse_period *= 2.0) {
+      Level coarse = levelAt(atPeriod(choice.config, coarse_period, shortest_drawing), messages_);
+      runFree(model, theta, choice.config.min_pressure, &coarse);
+      changes.insert(changes.begin(), changeBetween(coarse, finer, finer.period));
+      finer = std::move(coarse);
+    }
+    const double last_change = changes.back(), earlier_change = changes[changes.size() - 2];
+    const double order = std::isfinite(earlier_change) && last_change > 0.0
+                             ? std::clamp(std::log2(earlier_change / last_change), 1.0, 4.0)
+                             : 1.0;
+    choice.resolution_error = last_change / (std::pow(2.0, order) - 1.0);
+    if (choice.resolution_error > allowed_change) {
+      // The period at which the error would fall to the allowed share, at the same order.
+      const double needed = chosen_period * std::pow(allowed_change / choice.resolution_error, 1.0 / order);
+      choice.resolution_remedy =
+          formatted("record pressure, position and valve at %.0f Hz or more", 100.0 * std::ceil(0.01 / needed));
+      choice.resolution_limit = formatted(
+          "resolution-limited: at the finest sample period the recording supports (%.3g ms; its fastest topic "
+          "comes every %.3g ms) the free run's own error is about %.2g bar (pressure noise %.2g bar); ",
+          1e3 * chosen_period, 1e3 * finest_interval, 1e-5 * choice.resolution_error, 1e-5 * noise) +
+                                choice.resolution_remedy;
+    } else {
+      resolved = true;
+    }
+  } else {
+    choice.resolution_error = std::numeric_limits<double>::quiet_NaN();
+  }
+  if (studied) choice.numerical_error = level(chosen).numerical_error;
+  const IdentificationConfig chosen_config = atPeriod(choice.config, chosen_period, shortest_drawing);
+  std::string period_reason;
+  if (!implausible.empty()) {
+    period_reason = formatted("the finest the recording supports (messages every %.3g ms), unstudied: the configured "
+                              "model's fit is implausible (",
+                              1e3 * finest_interval) +
+                    implausible.front() + "), so its free run cannot measure the grid's error";
+  } else if (!studied) {
+    period_reason = "the paper's value: the survey holds nothing to identify";
+  } else if (resolved) {
+    period_reason = formatted("the free run's own error there is %.3g bar, from how it changes as the period "
+                              "halves (the pressure noise is %.3g bar)",
+                              1e-5 * choice.resolution_error, 1e-5 * noise);
+  } else {
+    period_reason = formatted("the finest the recording supports (messages every %.3g ms); the free run's own "
+                              "error there is about %.2g bar (noise %.3g bar)",
+                              1e3 * finest_interval, 1e-5 * choice.resolution_error, 1e-5 * noise);
+  }
+  const auto add = [&](const std::string& key, double chosen_value, const std::string& reason) {
+    ChosenSetting setting;
+    setting.key = key;
+    setting.value = chosen_value;
+    setting.reason = reason;
+    choice.settings.push_back(setting);
+  };
+  add("sample_period", chosen_period, period_reason);
+  const std::string window_reason =
+      chosen_config.moving_average_width == oddSamples(kMovingAverageWindow, chosen_period, 1)
+          ? "the paper's window in time (62 ms moving average, 50 ms derivative)"
+          : formatted("the paper's windows shortened to half the shortest drawing phase (%.3g s)", shortest_drawing);
+  add("moving_average_width", chosen_config.moving_average_width, window_reason);
+  add("derivative_width", chosen_config.derivative_width, window_reason);
+  add("identification_period", chosen_config.identification_period, "the paper's 10 ms, a whole number of samples");
+
+  // The configured values are kept, and judged.
+  IdentificationConfig& c = choice.config;
+  c.resampler.sample_period = chosen_config.resampler.sample_period;
+  c.moving_average_width = chosen_config.moving_average_width;
+  c.derivative_width = chosen_config.derivative_width;
+  c.identification_period = chosen_config.identification_period;
+  c.velocity_window = std::max(config_.velocity_window, 2.0 * c.resampler.sample_period);
+  for (ChosenSetting& setting : choice.settings) {
+    if (!configured_.count(setting.key)) continue;
+    setting.configured = true;
+    if (setting.key == "sample_period") {
+      setting.value = config_.resampler.sample_period;
+      c.resampler.sample_period = setting.value;
+      setting.reason = "configured";
+      for (std::size_t k = 0; k < choice.study.size(); ++k) {
+        if (std::abs(choice.study[k].sample_period - setting.value) > 1e-12) continue;
+        const double change = choice.study[k].change_to_finer;
+        if (std::isfinite(change) && change > allowed_change) {
+          choice.warnings.push_back(formatted("sample_period %.3g ms (configured) leaves a resolution error on this "
+                                              "recording: the free run changes by %.2g bar when it halves (pressure "
+                                              "noise %.2g bar); the analysis would choose %.3g ms. An error of the "
+                                              "grid can look like a missing effect: remove the key to let the "
+                                              "analysis choose",
+                                              1e3 * setting.value, 1e-5 * change, 1e-5 * noise, 1e3 * chosen_period));
+        }
+      }
+    } else if (setting.key == "moving_average_width") {
+      setting.value = config_.moving_average_width;
+      c.moving_average_width = config_.moving_average_width;
+      setting.reason = "configured";
+    } else if (setting.key == "derivative_width") {
+      setting.value = config_.derivative_width;
+      c.derivative_width = config_.derivative_width;
+      setting.reason = "configured";
+    } else if (setting.key == "identification_period") {
+      setting.value = config_.identification_period;
+      c.identification_period = config_.identification_period;
+      setting.reason = "configured";
+    }
+  }
+  // A configured period changes what the others must be multiples of.
+  if (std::abs(c.identification_period / c.resampler.sample_period - std::lround(c.identification_period / c.resampler.sample_period)) > 1e-6) {
+    c.identification_period = c.resampler.sample_period * std::max(1L, std::lround(kIdentificationPeriod / c.resampler.sample_period));
+  }
+  if (shortest_drawing > 0.0 && (c.moving_average_width + c.derivative_width - 1) * c.resampler.sample_period > shortest_drawing) {
+    choice.warnings.push_back(formatted("the filter windows (%.0f + %.0f samples of %.3g ms) are longer than the shortest "
+                                        "drawing phase (%.3g s): few rows lie wholly in it",
+                                        c.moving_average_width, c.derivative_width, 1e3 * c.resampler.sample_period,
+                                        shortest_drawing));
+  }
+  choice.seconds_spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return choice;
+}
+
+}  // namespace die_cushion_ident

@@ -1,0 +1,127 @@
+// The settings chosen from the recording (SettingsFromRecording): the paper's 2 ms where it resolves the
+// press, finer where the press is faster, never finer than the recording, and the recording's own limit told
+// as what to record instead; a configured value kept and judged; the valve and the clock offsets taken from
+// the survey.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "die_cushion_ident/core/analysis/settings_from_recording.h"
+#include "die_cushion_ident/core/simulation/press_class.h"
+
+using namespace die_cushion_ident;
+
+namespace {
+
+// The first `seconds` of a class's press, surveyed.
+SettingsChoice surveyed(SimulatorConfig plant, const std::set<std::string>& configured = {},
+                        IdentificationConfig config = IdentificationConfig(), double position_late = 0.0) {
+  DieCushionSimulator simulator(plant);
+  std::vector<SimulatedMeasurement> messages;
+  simulator.run(8 * simulator.program().cycleDuration(), &messages);
+  config.geometry = plant.geometry;
+  SettingsFromRecording survey(config, configured);
+  for (auto m : messages) {
+    if (m.stream == InputStream::kPosition) m.sample.stamp += position_late;
+    if (!survey.push(m.stream, m.sample)) break;
+  }
+  return survey.choose();
+}
+
+const ChosenSetting& setting(const SettingsChoice& c, const std::string& key) {
+  for (const auto& s : c.settings) {
+    if (s.key == key) return s;
+  }
+  throw std::runtime_error("no setting " + key);
+}
+
+}  // namespace
+
+// The paper's press keeps the paper's settings; the fast press gets the finest grid its 1 kHz topics allow.
+TEST(SettingsFromRecording, ThePapersPressKeepsThePapersSettingsAndAFastOneGetsAFinerGrid) {
+  const SettingsChoice slow = surveyed(pressClassPlant(PressClass::kSlowHydraulic));
+  EXPECT_DOUBLE_EQ(setting(slow, "sample_period").value, 0.002) << setting(slow, "sample_period").reason;
+  EXPECT_DOUBLE_EQ(setting(slow, "moving_average_width").value, 31);
+  EXPECT_DOUBLE_EQ(setting(slow, "derivative_width").value, 25);
+  EXPECT_DOUBLE_EQ(setting(slow, "identification_period").value, 0.010);
+  EXPECT_LT(slow.resolution_error, SettingsFromRecording::kResolutionShare * slow.survey.pressure_noise);
+  EXPECT_TRUE(slow.resolution_limit.empty()) << slow.resolution_limit;
+  EXPECT_NEAR(slow.survey.message_interval[0], 0.001, 1e-5);
+  EXPECT_GE(slow.survey.cycles, 6);
+
+  const SettingsChoice fast = surveyed(pressClassPlant(PressClass::kFastMechanical));
+  EXPECT_DOUBLE_EQ(setting(fast, "sample_period").value, 0.001) << setting(fast, "sample_period").reason;
+  EXPECT_EQ(setting(fast, "moving_average_width").value, 63) << "the paper's 62 ms window in 1 ms samples";
+  EXPECT_EQ(setting(fast, "derivative_width").value, 51);
+  ASSERT_GE(fast.study.size(), 2u);
+  EXPECT_GT(fast.study[0].change_to_finer, SettingsFromRecording::kResolutionShare * fast.survey.pressure_noise)
+      << "2 ms does not resolve a 4 ms impact";
+  EXPECT_LT(fast.numerical_error, 0.02 * fast.survey.pressure_noise) << "the free run's own numerical error";
+}
+
+// A fast press recorded at 250 Hz: the recording, not the analysis, limits the resolution, and the report
+// says what rate to record at instead.
+TEST(SettingsFromRecording, ARecordingTooSlowForThePressSaysWhatToRecordInstead) {
+  SimulatorConfig plant = pressClassPlant(PressClass::kFastMechanical);
+  plant.sensors.pressure_rate = plant.sensors.position_rate = plant.sensors.valve_rate = 250.0;
+  const SettingsChoice c = surveyed(plant);
+  EXPECT_DOUBLE_EQ(setting(c, "sample_period").value, 0.002);
+  EXPECT_GT(c.resolution_error, SettingsFromRecording::kResolutionShare * c.survey.pressure_noise);
+  EXPECT_NE(c.resolution_limit.find("resolution-limited"), std::string::npos) << c.resolution_limit;
+  EXPECT_NE(c.resolution_remedy.find("Hz or more"), std::string::npos) << c.resolution_remedy;
+}
+
+// A configured sample period is kept, and judged: on the fast press 2 ms leaves a resolution error, named.
+TEST(SettingsFromRecording, AConfiguredPeriodIsKeptAndJudged) {
+  IdentificationConfig config;
+  config.resampler.sample_period = 0.002;
+  const SettingsChoice c = surveyed(pressClassPlant(PressClass::kFastMechanical), {"sample_period"}, config);
+  EXPECT_DOUBLE_EQ(setting(c, "sample_period").value, 0.002);
+  EXPECT_TRUE(setting(c, "sample_period").configured);
+  EXPECT_DOUBLE_EQ(c.config.resampler.sample_period, 0.002);
+  bool warned = false;
+  for (const auto& w : c.warnings) warned |= w.find("sample_period 2 ms (configured)") != std::string::npos;
+  EXPECT_TRUE(warned) << (c.warnings.empty() ? "" : c.warnings.front());
+}
+
+// The valve model is fitted to the survey's operation (the free run then takes its spool), and the clock
+// offsets are estimated at the finest period and applied.
+TEST(SettingsFromRecording, TheValveAndTheClockOffsetsComeFromTheSurvey) {
+  const SimulatorConfig plant = pressClassPlant(PressClass::kSmallStiff);
+  const SettingsChoice c = surveyed(plant, {}, IdentificationConfig(), 0.010);
+  ASSERT_TRUE(c.valve.has_value());
+  EXPECT_TRUE(c.valve_from_operation) << c.valve->message;
+  EXPECT_TRUE(c.config.valve_model_drives_free_run);
+  EXPECT_NEAR(c.config.valve.natural_frequency / plant.valve.natural_frequency, 1.0, 0.05);
+  ASSERT_TRUE(c.delays.has_value());
+  EXPECT_TRUE(c.delays_applied);
+  EXPECT_NEAR(c.config.topic_delays[1], 0.010, 0.3e-3);
+  EXPECT_NEAR(c.config.topic_delays[2], 0.0, 0.3e-3);
+}
+
+// Without a measured spool there is nothing to fit the valve to: the configured model stays, and the free
+// run takes the spool it predicts (as the identification does).
+TEST(SettingsFromRecording, WithoutAMeasuredSpoolTheConfiguredValveStays) {
+  SimulatorConfig plant = pressClassPlant(PressClass::kSlowHydraulic);
+  plant.sensors.measure_spool = false;
+  const SettingsChoice c = surveyed(plant);
+  EXPECT_FALSE(c.survey.spool_measured);
+  EXPECT_FALSE(c.valve.has_value());
+  EXPECT_FALSE(c.valve_from_operation);
+  EXPECT_DOUBLE_EQ(c.config.valve.natural_frequency, IdentificationConfig().valve.natural_frequency);
+}
+
+// A recording with nothing to identify (the cushion at rest) keeps the paper's settings and says so.
+TEST(SettingsFromRecording, NothingToStudyKeepsThePapersSettings) {
+  SimulatorConfig plant;
+  plant.cycle.rest_time = 100.0;
+  DieCushionSimulator simulator(plant);
+  std::vector<SimulatedMeasurement> messages;
+  simulator.run(5.0, &messages);
+  SettingsFromRecording survey(IdentificationConfig(), {});
+  for (const auto& m : messages) survey.push(m.stream, m.sample);
+  const SettingsChoice c = survey.choose();
+  EXPECT_DOUBLE_EQ(setting(c, "sample_period").value, 0.002);
+  EXPECT_NE(setting(c, "sample_period").reason.find("nothing to identify"), std::string::npos);
+  EXPECT_TRUE(c.study.empty());
+}
