@@ -355,11 +355,20 @@ void IdentificationNode::diagnoseStepTest(diagnostic_updater::DiagnosticStatusWr
 // ---- valve sweep ----
 
 PlantCondition IdentificationNode::plantCondition(double now) const {
+  // Each signal's age against the newest input stamp, plus the time all inputs have been silent once that
+  // exceeds kInputSilenceTolerance. Against the clock alone, messages queued behind a burst looked stale:
+  // under /use_sim_time a simulator catching up after a stall advances /clock, which ROS applies at once,
+  // ahead of the measurements still in the callback queue (live_sweep aborted at 73-86 ms, pressure or
+  // spool, on a loaded 2-core machine). A dead sensor still ages while the others keep coming; a dead bus
+  // ages everything once its silence passes the tolerance; a signal never received is infinitely old.
   PlantCondition c;
+  const double newest = std::max(pressure_stamp_, spool_stamp_);
+  const double silence = now - newest;
+  const double silent_for = silence > kInputSilenceTolerance ? silence : 0.0;
   c.pressure = pressure_;
-  c.pressure_age = now - pressure_stamp_;
+  c.pressure_age = newest - pressure_stamp_ + silent_for;
   c.velocity = velocity_.velocity();
-  c.spool_age = now - spool_stamp_;
+  c.spool_age = newest - spool_stamp_ + silent_for;
   return c;
 }
 

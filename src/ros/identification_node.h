@@ -112,6 +112,8 @@ class IdentificationNode {
   JointSelector joints_;
   bool ambiguity_reported_ = false;
   double spool_stamp_ = -1e18;
+  /// [s] how long all inputs may be silent (against the clock) before every signal counts as stale.
+  static constexpr double kInputSilenceTolerance = 0.2;
   std::uint64_t rejected_[kInputStreamCount] = {0, 0, 0};
   std::uint64_t wild_reported_[kInputStreamCount] = {0, 0, 0};  // wild stamps at the last diagnostic
   std::string last_rejection_[kInputStreamCount];
