@@ -11,14 +11,6 @@
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
-#include "die_cushion_ident/core/signal/white_noise_estimator.h"
-
-namespace die_cushion_ident {
-namespace {
-// The free run refined by its own error is kept up to this multiple of the pressure noise.
-constexpr double kRefinedNoiseFactor = 2.5;
-}  // namespace
-}  // namespace die_cushion_ident
 
 namespace die_cushion_ident {
 
@@ -89,6 +81,7 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<Gr
 }
 
 OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
+  config_.refine_held_out_fits = true;
   pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) { grid_.push_back(g); });
   pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
 }
@@ -336,20 +329,6 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
       tell("refining the parameters by the free run's error");
       r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),
                                            config_.min_pressure);
-      // Kept only where it brings the free run to the sensor's noise: then the equation-error fit's
-      // resolution was all that was left. Where a structured error remains, the model lacks something;
-      // refining it would spread that error over the stroke (a missing leakage's hold moved into the
-      // impact), and the equation-error estimate shows where it is made.
-      WhiteNoiseEstimator noise(4);
-      for (std::size_t i = 1; i + 1 < grid_.size(); ++i) noise.add(grid_[i - 1].p, grid_[i].p, grid_[i + 1].p);
-      const double sigma = noise.sigma();
-      if (r.output_error->improved && !(std::isfinite(sigma) && r.output_error->rms <= kRefinedNoiseFactor * sigma)) {
-        r.output_error->improved = false;
-        r.output_error->message += formatted("; not kept: %.2f times the pressure noise (%.3g bar) remain, more than "
-                                             "%.1f: the model lacks something, and the equation-error estimate "
-                                             "shows where",
-                                             r.output_error->rms / sigma, 1e-5 * sigma, kRefinedNoiseFactor);
-      }
       if (r.output_error->improved) {
         for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
           r.model.parameters[i].value = r.output_error->theta(static_cast<Eigen::Index>(i));

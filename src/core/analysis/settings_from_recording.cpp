@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <future>
 #include <climits>
 #include <cmath>
 #include <unordered_map>
@@ -218,22 +219,13 @@ SettingsChoice SettingsFromRecording::choose() const {
                                         1e3 * config_.valve.dead_time));
   }
 
-  // The valve model that drives the free run and judges the port side: fitted to the operation where the
-  // spool is measured, unless it does not follow the spool better than the configured one.
+  // The valve model from the operation, fitted on the other core while the clock offsets are searched
+  // (they read the measured spool, not the model's).
+  std::future<ValveOperationFit> valve_fit;
   if (survey.spool_measured) {
-    choice.valve = fitValveToOperation(valve, config_.valve, config_.resampler.max_gap);
-    if (choice.valve->success && choice.valve->residual_rms < choice.valve->start_residual_rms) {
-      choice.config.valve = choice.valve->parameters;
-      choice.config.valve_model_drives_free_run = true;
-      choice.valve_from_operation = true;
-      if (valve_configured && choice.valve->start_residual_rms > 1.5 * choice.valve->noise_sigma) {
-        choice.warnings.push_back(
-            "the configured valve model does not follow the measured spool (" +
-            formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
-                      choice.valve->noise_sigma) +
-            "): the analysis uses the one fitted to the recording's operation instead (" + choice.valve->message + ")");
-      }
-    }
+    valve_fit = std::async(std::launch::async, [&valve, this] {
+      return fitValveToOperation(valve, config_.valve, config_.resampler.max_gap);
+    });
   }
 
   // The resolution study: from the paper's 2 ms down, halving, never finer than the finest topic's messages
@@ -265,6 +257,24 @@ SettingsChoice SettingsFromRecording::choose() const {
       choice.config.topic_delays = {0.0, 0.0, 0.0};
     }
   }
+  // The valve model that drives the free run and judges the port side: fitted to the operation where the
+  // spool is measured, unless it does not follow the spool better than the configured one.
+  if (valve_fit.valid()) {
+    choice.valve = valve_fit.get();
+    if (choice.valve->success && choice.valve->residual_rms < choice.valve->start_residual_rms) {
+      choice.config.valve = choice.valve->parameters;
+      choice.config.valve_model_drives_free_run = true;
+      choice.valve_from_operation = true;
+      if (valve_configured && choice.valve->start_residual_rms > 1.5 * choice.valve->noise_sigma) {
+        choice.warnings.push_back(
+            "the configured valve model does not follow the measured spool (" +
+            formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
+                      choice.valve->noise_sigma) +
+            "): the analysis uses the one fitted to the recording's operation instead (" + choice.valve->message + ")");
+      }
+    }
+  }
+
   // The model identified once, at the finest period, then run free at every period: how much the free run
   // moves as the period halves is the grid's own error. (Each period's own fit moved with the period where the
   // configured model lacked an effect: a missing tank pressure changed the free run by 0.75 bar between 2 and

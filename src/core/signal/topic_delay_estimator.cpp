@@ -216,7 +216,18 @@ struct LineSearch {
 // Minimum of cost(shift) over [-range, range] samples: whole samples, then quarter samples around the best,
 // then a parabola through the best three.
 template <typename Cost>
-LineSearch searchShift(const Cost& cost, double range) {
+LineSearch searchShift(const Cost& evaluate, double range) {
+  // The integer, quarter and parabola points overlap (0, the coarse best, best +- 1/4): each is evaluated
+  // once (a third of the search's evaluations on the polishing rounds).
+  std::vector<std::pair<double, double>> seen;
+  const auto cost = [&](double shift) {
+    for (const auto& [at, value] : seen) {
+      if (std::abs(at - shift) < 1e-9) return value;
+    }
+    const double value = evaluate(shift);
+    seen.emplace_back(shift, value);
+    return value;
+  };
   double best = 0.0, best_cost = cost(0.0);
   for (double shift = -std::floor(range); shift <= range; shift += 1.0) {
     const double c = cost(shift);

@@ -59,6 +59,10 @@ struct IdentificationConfig {
   /// (SettingsFromRecording fitted it to the recording's operation). Where the spool is not measured the
   /// model's spool drives everything anyway.
   bool valve_model_drives_free_run = false;
+  /// The held-out tests refine each training fit by its free run's error (refineByOutputError) where that
+  /// reaches the noise: set by the offline analysis; the live ranking, which must keep pace with the
+  /// strokes, leaves it off.
+  bool refine_held_out_fits = false;
   /// [s] how long the valve amplifier holds each command; NaN (default) = one valve message interval;
   /// 0 = the voltage was sampled from a continuous signal (no hold to divide out of a sweep's response).
   double valve_command_hold = std::numeric_limits<double>::quiet_NaN();

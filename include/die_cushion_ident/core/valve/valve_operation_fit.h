@@ -29,6 +29,6 @@ struct ValveOperationFit {
 /// when the spool moved (its range beyond 20 noise stds) and the fitted model explains it to within 3 times
 /// the sensor's noise.
 ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& samples, const ServoValveParameters& start,
-                                      double max_gap = 0.02, std::size_t max_samples = 30000);
+                                      double max_gap = 0.02, std::size_t max_samples = 15000);
 
 }  // namespace die_cushion_ident
