@@ -94,7 +94,8 @@ TEST_F(AnalyzeBag, SummaryFollowsTheContractAndFindsTheMissingLeakage) {
   // The settings chosen from the recording, with their reasons.
   ASSERT_TRUE(s["settings"]);
   EXPECT_TRUE(s["settings"]["chosen_from_recording"].as<bool>());
-  for (const char* key : {"sample_period", "moving_average_width", "derivative_width", "identification_period"}) {
+  for (const char* key : {"sample_period", "moving_average_width", "derivative_width", "identification_period",
+                          "velocity_window"}) {
     EXPECT_TRUE(s["settings"][key]["value"]) << key;
     EXPECT_FALSE(s["settings"][key]["reason"].as<std::string>().empty()) << key;
   }
@@ -485,11 +486,27 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
   EXPECT_FALSE(std::ifstream(kWork + "/reused/frequency_response.csv").good()) << "no stale valve results";
   EXPECT_FALSE(std::ifstream(kWork + "/reused/valve_fit.csv").good()) << "no stale valve results";
 
-  // A full disk (a file-size limit here): exit 4 with the reason, never an abort.
-  r = run("bash -c 'trap \"\" XFSZ; ulimit -f 200; " + tool + kWork + "/leak.bag --out " + kWork + "/full" +
-          config("geometry.yaml", geometry) + "'");
-  EXPECT_EQ(r.status, 4) << r.output;
-  EXPECT_NE(r.output.find("cannot write"), std::string::npos) << r.output;
+  // A full disk (a file-size limit here), hit while writing different files: exit 4 with the reason, never
+  // an abort, and no file left under a final name or half-written under a temporary one (issue 28).
+  for (const int kilobytes : {20, 200, 1000}) {
+    const std::string out = kWork + "/full" + std::to_string(kilobytes);
+    std::system(("mkdir -p " + out).c_str());
+    r = run("bash -c 'trap \"\" XFSZ; ulimit -f " + std::to_string(kilobytes) + "; " + tool + kWork +
+            "/leak.bag --out " + out + config("geometry.yaml", geometry) + "'");
+    EXPECT_EQ(r.status, 4) << r.output;
+    EXPECT_NE(r.output.find("cannot write"), std::string::npos) << r.output;
+    for (const std::string name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
+                                   "frequency_response.csv", "valve_fit.csv", "proposals.csv"}) {
+      EXPECT_FALSE(std::ifstream(out + "/" + name).good()) << kilobytes << " kB: " << name;
+      EXPECT_FALSE(std::ifstream(out + "/" + name + ".partial").good()) << kilobytes << " kB: " << name;
+    }
+  }
+  // A complete run lists what it wrote, and each is there.
+  const YAML::Node whole = YAML::LoadFile(kWork + "/reused/summary.yaml");
+  ASSERT_TRUE(whole["outputs"].IsSequence());
+  for (const auto& name : whole["outputs"]) {
+    EXPECT_TRUE(std::ifstream(kWork + "/reused/" + name.as<std::string>()).good()) << name.as<std::string>();
+  }
 }
 
 // Generated hostile bags, the review's cases and more like them: random mixtures of absurd values, NaN,
