@@ -54,7 +54,8 @@ void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& 
   out << YAML::EndSeq;
 }
 
-std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r);
+std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r,
+                        const std::vector<std::string>& outputs);
 
 // yaml-cpp writes NaN and infinity as .nan / .inf; the contract allows neither. Each becomes null (~), and the
 // count is returned so that a warning can say so.
@@ -76,12 +77,13 @@ int replaceNonFinite(std::string* text) {
 }
 
 void writeSummary(const std::string& path, const AnalysisInput& input, const IdentificationConfig& config,
-                  const OfflineResult& result) {
-  std::string text = emitSummary(input, config, result);
+                  const OfflineResult& result,
+                  const std::vector<std::string>& outputs) {
+  std::string text = emitSummary(input, config, result, outputs);
   if (replaceNonFinite(&text) > 0) {
     OfflineResult flagged = result;
     flagged.warnings.push_back("some figures could not be computed (not finite) and are written as null (~)");
-    text = emitSummary(input, config, flagged);
+    text = emitSummary(input, config, flagged, outputs);
     replaceNonFinite(&text);
   }
   std::ofstream file(path);
@@ -157,7 +159,8 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config, const 
   out << YAML::EndMap;
 }
 
-std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r) {
+std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r,
+                        const std::vector<std::string>& outputs) {
   static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
   YAML::Emitter out;
   out.SetDoublePrecision(6);
@@ -341,6 +344,8 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndSeq;
     out << YAML::EndMap;
   }
+  // The files this run wrote (each complete: written under a temporary name, renamed when whole).
+  out << YAML::Key << "outputs" << YAML::Value << YAML::Flow << outputs;
   out << YAML::Key << "warnings" << YAML::Value << r.warnings;
   out << YAML::EndMap;
   return out.c_str();
@@ -354,6 +359,9 @@ std::ostream& operator<<(std::ostream& out, Field f) {
   if (std::isfinite(f.value)) out << f.value;
   return out;
 }
+
+// The suffix of a file being written: it takes its final name only when whole.
+constexpr const char* kPartial = ".partial";
 
 void closeChecked(std::ofstream& file, const std::string& path) {
   file.close();
@@ -445,9 +453,11 @@ void writeComparisonCsv(const std::string& path, const OfflineResult& r, const s
   csv.close();
 }
 
-void writeSmallCsvs(const std::string& directory, const OfflineResult& r) {
+// Written under "name.partial" (AnalysisWriter renames them when the run is complete); the names written.
+std::vector<std::string> writeSmallCsvs(const std::string& directory, const OfflineResult& r) {
+  std::vector<std::string> written;
   if (r.valve) {
-    std::ofstream csv(directory + "/frequency_response.csv");
+    std::ofstream csv(directory + "/frequency_response.csv" + kPartial);
     csv << "frequency,re,im,magnitude,phase,magnitude_std,phase_std,harmonic_distortion,distorted\n";
     for (const auto& p : r.valve->points) {
       csv << Field{p.frequency} << "," << Field{p.re} << "," << Field{p.im} << "," << Field{p.magnitude} << ","
@@ -455,21 +465,23 @@ void writeSmallCsvs(const std::string& directory, const OfflineResult& r) {
           << Field{p.harmonic_distortion} << "," << p.distorted << "\n";
     }
     closeChecked(csv, directory + "/frequency_response.csv");
+    written.push_back("frequency_response.csv");
     // The fitted model's curve as the bag's FrequencyResponse message carries it, for the report's Bode plot.
     const FrequencyResponse response = toFrequencyResponseMsg(r.valve->points, r.valve->fit, "finished", ros::Time());
     if (!response.fit_frequency.empty()) {
-      CsvFile fit(directory + "/valve_fit.csv");
+      CsvFile fit(directory + "/valve_fit.csv" + kPartial);
       fit.text("frequency,magnitude,phase").endLine();
       for (std::size_t k = 0; k < response.fit_frequency.size(); ++k) {
         fit.field(response.fit_frequency[k]).comma().field(response.fit_magnitude[k]).comma();
         fit.field(response.fit_phase[k]).endLine();
       }
       fit.close();
+      written.push_back("valve_fit.csv");
     }
   }
   if (!r.ranking.proposals.empty()) {
     // For the report: each proposal's residual against its signal, with the fitted term drawn over it.
-    std::ofstream csv(directory + "/proposals.csv");
+    std::ofstream csv(directory + "/proposals.csv" + kPartial);
     csv << "expression,signal,signal_value,residual_flow,term_flow\n";
     csv.precision(8);
     for (const auto& p : r.ranking.proposals) {
@@ -479,7 +491,9 @@ void writeSmallCsvs(const std::string& directory, const OfflineResult& r) {
       }
     }
     closeChecked(csv, directory + "/proposals.csv");
+    written.push_back("proposals.csv");
   }
+  return written;
 }
 
 }  // namespace
@@ -528,29 +542,39 @@ class AnalysisBag {
   BagStreamWriter bag_;
 };
 
+namespace {
+const char* const kOutputs[] = {"summary.yaml",           "analysis.bag",  "estimates.csv", "model_comparison.csv",
+                                "frequency_response.csv", "valve_fit.csv", "proposals.csv"};
+}  // namespace
+
 AnalysisWriter::AnalysisWriter(const std::string& directory, const IdentificationConfig& config,
                                const OfflineResult& result, const std::vector<GridSample>& grid)
     : directory_(directory),
       config_(config),
       model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)) {
   // A reused output folder must not keep a previous run's files (a stale frequency_response.csv would
-  // describe another recording).
-  for (const char* name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
-                           "frequency_response.csv", "valve_fit.csv", "proposals.csv"}) {
+  // describe another recording), whole or partial.
+  for (const char* name : kOutputs) {
     std::remove((directory + "/" + name).c_str());
+    std::remove((directory + "/" + name + kPartial).c_str());
   }
-  bag_ = std::make_unique<AnalysisBag>(directory + "/analysis.bag");
+  bag_ = std::make_unique<AnalysisBag>(directory + "/analysis.bag" + kPartial);
   bag_series_ = std::async(std::launch::async, [this, &result, &grid] { bag_->writeSeries(result, grid, model_); });
   comparison_csv_ = std::async(std::launch::async, [this, &result, &grid] {
-    writeComparisonCsv(directory_ + "/model_comparison.csv", result, grid);
+    writeComparisonCsv(directory_ + "/model_comparison.csv" + kPartial, result, grid);
   });
-  estimates_csv_ = std::async(std::launch::async,
-                              [this, &result] { writeEstimatesCsv(directory_ + "/estimates.csv", result, model_); });
+  estimates_csv_ = std::async(std::launch::async, [this, &result] {
+    writeEstimatesCsv(directory_ + "/estimates.csv" + kPartial, result, model_);
+  });
 }
 
 AnalysisWriter::~AnalysisWriter() {
   for (auto* running : {&bag_series_, &comparison_csv_, &estimates_csv_}) {
     if (running->valid()) running->wait();
+  }
+  // A run that failed (a full disk, an error) leaves no file under a final name, and no partial one.
+  if (!finished_) {
+    for (const char* name : kOutputs) std::remove((directory_ + "/" + name + kPartial).c_str());
   }
 }
 
@@ -560,8 +584,18 @@ void AnalysisWriter::finish(const AnalysisInput& input, const OfflineResult& res
   bag_series_.get();
   bag_->writeValve(result);
   bag_->close();
-  writeSmallCsvs(directory_, result);
-  writeSummary(directory_ + "/summary.yaml", input, config_, result);
+  std::vector<std::string> outputs = {"analysis.bag", "estimates.csv", "model_comparison.csv"};
+  for (const std::string& name : writeSmallCsvs(directory_, result)) outputs.push_back(name);
+  outputs.push_back("summary.yaml");
+  writeSummary(directory_ + "/summary.yaml" + kPartial, input, config_, result, outputs);
+  // Renamed when all are whole, summary.yaml last: a summary under its name means the run completed.
+  for (const std::string& name : outputs) {
+    const std::string path = directory_ + "/" + name;
+    if (std::rename((path + kPartial).c_str(), path.c_str()) != 0) {
+      throw std::runtime_error("cannot rename " + path + kPartial + " to " + path);
+    }
+  }
+  finished_ = true;
 }
 
 }  // namespace die_cushion_ident

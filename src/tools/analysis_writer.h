@@ -27,7 +27,9 @@ struct AnalysisInput {
 /// In two steps, because writing an hour's estimates and comparison into the bag takes seconds: the
 /// constructor starts writing them (and their CSVs) on their own threads as soon as OfflineAnalysis::identify()
 /// has made them final, so that it runs while OfflineAnalysis::explain() ranks the effects; finish() waits for
-/// them and writes the rest. Throws std::runtime_error when a file cannot be written.
+/// them and writes the rest. Every file is written as NAME.partial and renamed when all are whole (summary.yaml
+/// last, listing them under `outputs`); a failed run leaves neither. Throws std::runtime_error when a file
+/// cannot be written.
 class AnalysisWriter {
  public:
   /// Removes a previous run's outputs from `directory` (which must exist) and starts writing. The result's
@@ -45,6 +47,7 @@ class AnalysisWriter {
   HydraulicModel model_;  // read only, by the threads that write the series
   std::unique_ptr<class AnalysisBag> bag_;
   std::future<void> bag_series_, comparison_csv_, estimates_csv_;
+  bool finished_ = false;  // every output renamed to its final name
 };
 
 }  // namespace die_cushion_ident

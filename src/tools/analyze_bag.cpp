@@ -478,6 +478,7 @@ int run(int argc, char** argv) {
   try {
     writer->finish(input, result);
   } catch (const std::exception& e) {
+    writer.reset();  // removes what it wrote under temporary names (fail() exits without unwinding)
     fail(4, std::string("cannot write the results: ") + e.what());
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
