@@ -8,12 +8,24 @@
 
 namespace die_cushion_ident {
 
+namespace {
+FeedForwardInterlockLimits interlockLimits(double limit, double slew_rate, double parameter_rate) {
+  FeedForwardInterlockLimits l;
+  l.max_voltage = limit > 0.0 ? limit : 1e-9;  // a range that excludes 0 V on one side allows nothing
+  l.slew_rate = slew_rate;
+  l.parameter_rate = parameter_rate;
+  return l;
+}
+}  // namespace
+
 FeedForwardPublisher::FeedForwardPublisher(ros::NodeHandle nh, ros::NodeHandle pnh, double valve_gain,
-                                           double max_age, double min_voltage, double max_voltage)
+                                           double max_age, double min_voltage, double max_voltage,
+                                           double slew_rate, double parameter_rate)
     : configured_gain_(valve_gain),
       max_age_(max_age),
       // Symmetric for the inverse, inside the requested range on both sides.
-      limit_(std::max(0.0, std::min(-min_voltage, max_voltage))) {
+      limit_(std::max(0.0, std::min(-min_voltage, max_voltage))),
+      interlock_(interlockLimits(limit_, slew_rate, parameter_rate), valve_gain) {
   sub_ = nh.subscribe("pressure_setpoint", 100, &FeedForwardPublisher::onSetpoint, this);
   pub_ = pnh.advertise<ValveSignal>("feed_forward", 10);
 }
@@ -26,6 +38,7 @@ void FeedForwardPublisher::onSetpoint(const sensor_msgs::FluidPressure::ConstPtr
 void FeedForwardPublisher::modelChanged() {
   feed_forward_.reset();
   model_ = nullptr;
+  interlock_.restart();
 }
 
 void FeedForwardPublisher::publish(double stamp, double voltage) {
@@ -41,10 +54,18 @@ void FeedForwardPublisher::publish(double stamp, double voltage) {
 void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& model, const ParameterVector& physical,
                                   bool model_ready, const ServoValveParameters* valve) {
   std::lock_guard<std::mutex> lock(mutex_);
+  const double dt = std::isfinite(last_t_) && g.t > last_t_ ? g.t - last_t_ : 0.0;
+  // The velocity previewed over the valve's lag with the acceleration of the last grid step (bounded: a
+  // derived velocity's step at impact is not extrapolated into a spike).
+  const double acceleration =
+      dt > 0.0 && std::isfinite(last_v_) && std::isfinite(g.v) ? std::clamp((g.v - last_v_) / dt, -50.0, 50.0) : 0.0;
+  last_t_ = g.t;
+  last_v_ = g.v;
   const auto stop = [&](const std::string& why) {
     blocker_ = why;
-    if (!withdrawn_) publish(g.t, 0.0);
-    withdrawn_ = true;
+    // Ramped to 0 V (bumpless), then silent.
+    if (!withdrawn_) publish(g.t, interlock_.output(NAN, dt));
+    withdrawn_ = interlock_.lastOutput() == 0.0;
   };
   if (!reference_.received()) return stop("no pressure_setpoint received yet");
   if (!model_ready) return stop("the estimator has not identified the model yet (the press must stroke)");
@@ -59,16 +80,23 @@ void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& mod
     wanted.dead_time = 0.0;  // no lag known: no lead
     wanted.natural_frequency = std::numeric_limits<double>::infinity();
   }
+  const std::string refusal = interlock_.check(physical, wanted.gain);
+  if (!refusal.empty()) {
+    ++refused_parameters_;
+    return stop("the identified parameters are refused: " + refusal);
+  }
+  interlock_.acceptValveGain(wanted.gain);
+  const ParameterVector& used = interlock_.follow(physical, dt);
   try {
     if (!feed_forward_ || model_ != &model || valve_identified_ != (valve != nullptr) ||
         wanted.gain != valve_used_.gain || wanted.dead_time != valve_used_.dead_time ||
         wanted.natural_frequency != valve_used_.natural_frequency || wanted.damping != valve_used_.damping) {
-      feed_forward_ = std::make_unique<PressureFeedForward>(model, physical, wanted, limit_);
+      feed_forward_ = std::make_unique<PressureFeedForward>(model, used, wanted, limit_);
       model_ = &model;
       valve_used_ = wanted;
       valve_identified_ = valve != nullptr;
     } else {
-      feed_forward_->setParameters(physical);
+      feed_forward_->setParameters(used);
     }
   } catch (const std::invalid_argument& e) {
     feed_forward_.reset();
@@ -83,11 +111,13 @@ void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& mod
   }
   bool valid = false;
   const double lead = feed_forward_->leadTime();
-  const double u = feed_forward_->command(reference->first, reference->second, g.x + lead * g.v, g.v, &valid);
+  const double v_ahead = g.v + lead * acceleration;
+  const double u = feed_forward_->command(reference->first, reference->second, g.x + lead * g.v + 0.5 * lead * lead * acceleration,
+                                          v_ahead, &valid);
   if (!valid) return stop("the cushion's position or velocity is not known");
   blocker_.clear();
   withdrawn_ = false;
-  publish(g.t, u);
+  publish(g.t, interlock_.output(u, dt));
 }
 
 void FeedForwardPublisher::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
@@ -105,6 +135,9 @@ void FeedForwardPublisher::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
   status.add("set-points refused (NaN or stamp not advancing)", reference_.rejected());
   status.add("valve model", valve_identified_ ? "identified by a sweep" : "~valve_gain, no lag");
   status.add("command limit [V]", limit_);
+  status.add("slew-rate limit [V/s]", interlock_.limits().slew_rate);
+  status.add("parameter rate limit [1/s]", interlock_.limits().parameter_rate);
+  status.add("estimates refused (sign, valve gain band)", refused_parameters_);
 }
 
 }  // namespace die_cushion_ident

@@ -4,10 +4,12 @@
 #include <ros/ros.h>
 #include <sensor_msgs/FluidPressure.h>
 
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
 
+#include "die_cushion_ident/core/control/feed_forward_interlock.h"
 #include "die_cushion_ident/core/control/pressure_feed_forward.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 
@@ -16,14 +18,16 @@ namespace die_cushion_ident {
 /// The node's feed-forward (paper, Fig. 19): subscribes to the cell controller's `pressure_setpoint`
 /// (sensor_msgs/FluidPressure) and publishes on `~feed_forward` (ValveSignal, `voltage`) the command the
 /// identified model needs for it at the cushion's measured motion, for the controller to add to its PI
-/// output. Published once per grid sample while everything it needs is there; otherwise 0 V once (so an
-/// adder does not hold a stale value) and the reason in the `feed-forward` diagnostic.
+/// output. Published once per grid sample while everything it needs is there; otherwise ramped to 0 V (so an
+/// adder does not hold a stale value) and the reason in the `feed-forward` diagnostic. Behind
+/// FeedForwardInterlock: parameters of the wrong sign or a valve gain far from the reference are refused,
+/// accepted ones followed at a bounded rate, the command slew-limited (bumpless on and off) with hysteresis.
 class FeedForwardPublisher {
  public:
   /// `valve_gain` [1/V]: until a sweep identifies the valve; NaN for none. `min_voltage`, `max_voltage`:
   /// the requested safe command range.
   FeedForwardPublisher(ros::NodeHandle nh, ros::NodeHandle pnh, double valve_gain, double max_age,
-                       double min_voltage, double max_voltage);
+                       double min_voltage, double max_voltage, double slew_rate, double parameter_rate);
 
   /// Called by the node (under its lock) for each grid sample with the current model and estimate;
   /// `valve` is the identified valve model, or null.
@@ -50,6 +54,9 @@ class FeedForwardPublisher {
   std::string blocker_ = "no pressure_setpoint received yet";
   double last_voltage_ = 0.0;
   std::uint64_t published_ = 0;
+  FeedForwardInterlock interlock_;
+  double last_t_ = std::numeric_limits<double>::quiet_NaN(), last_v_ = std::numeric_limits<double>::quiet_NaN();
+  std::uint64_t refused_parameters_ = 0;
 };
 
 }  // namespace die_cushion_ident

@@ -52,9 +52,9 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   sweep_.setCommandHold(config_.valve_command_hold);
   step_test_ = ValveStepTest(limits_);
   joints_ = JointSelector(settings_.joint_name);
-  feed_forward_ = std::make_unique<FeedForwardPublisher>(nh_, pnh_, settings_.valve_gain,
-                                                         settings_.feed_forward_max_age, limits_.min_voltage,
-                                                         limits_.max_voltage);
+  feed_forward_ = std::make_unique<FeedForwardPublisher>(
+      nh_, pnh_, settings_.valve_gain, settings_.feed_forward_max_age, limits_.min_voltage, limits_.max_voltage,
+      settings_.feed_forward_slew_rate, settings_.feed_forward_parameter_rate);
   rebuildPipeline();
 
   estimate_pub_ = pnh_.advertise<ParameterEstimate>("estimate", 10);
@@ -112,9 +112,10 @@ IdentificationNode::~IdentificationNode() {
   if (const auto u = sweep_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
 }
 
-bool IdentificationNode::sweepRunning() const {
+bool IdentificationNode::valveExperimentRunning() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return sweep_commanding_;
+  // A step test's interlocks are as time-critical as a sweep's: both want the fine spin.
+  return sweep_commanding_ || step_test_.running();
 }
 
 void IdentificationNode::rebuildPipeline() {
@@ -574,7 +575,7 @@ void spinBatched(ros::CallbackQueue& queue, const IdentificationNode& node, cons
       last_ros = ros_now;
       last_wall = wall;
     }
-    const double batch = node.sweepRunning() ? 2e-4 : std::clamp(0.02 / std::max(speed, 1e-3), 2e-4, 5e-3);
+    const double batch = node.valveExperimentRunning() ? 2e-4 : std::clamp(0.02 / std::max(speed, 1e-3), 2e-4, 5e-3);
     std::this_thread::sleep_for(std::chrono::duration<double>(batch));
   }
 }

@@ -45,8 +45,8 @@ class IdentificationNode {
   IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name = ros::this_node::getName());
   /// Aborts a running sweep ("shutdown") and sends the valve back to its offset.
   ~IdentificationNode();
-  /// True while a sweep commands the valve (the owner then takes callbacks more often).
-  bool sweepRunning() const;
+  /// True while a sweep or a step test commands the valve (the owner then takes callbacks more often).
+  bool valveExperimentRunning() const;
 
  private:
   void onPressure(const sensor_msgs::FluidPressure::ConstPtr& msg);

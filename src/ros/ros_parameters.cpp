@@ -86,6 +86,9 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   readNumber(pnh, "effect_ranking_period", &problems, [&](double v) { settings->effect_ranking_period = v; });
   readNumber(pnh, "valve_gain", &problems, [&](double v) { settings->valve_gain = v; });
   readNumber(pnh, "feed_forward_max_age", &problems, [&](double v) { settings->feed_forward_max_age = v; });
+  readNumber(pnh, "feed_forward_slew_rate", &problems, [&](double v) { settings->feed_forward_slew_rate = v; });
+  readNumber(pnh, "feed_forward_parameter_rate", &problems,
+             [&](double v) { settings->feed_forward_parameter_rate = v; });
   std::string form;
   if (pnh.hasParam("regression_form") &&
       (!pnh.getParam("regression_form", form) || !parseRegressionForm(form, &config->regression_form))) {
@@ -112,6 +115,8 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   positive("adequacy_error_error", settings->adequacy_error_error);
   positive("effect_ranking_period", settings->effect_ranking_period);
   positive("feed_forward_max_age", settings->feed_forward_max_age);
+  positive("feed_forward_slew_rate", settings->feed_forward_slew_rate);
+  positive("feed_forward_parameter_rate", settings->feed_forward_parameter_rate);
   if (pnh.hasParam("valve_gain") && !(std::isfinite(settings->valve_gain) && settings->valve_gain != 0.0)) {
     std::ostringstream s;
     s << "~valve_gain = " << settings->valve_gain << " is invalid: allowed finite and non-zero [1/V]";

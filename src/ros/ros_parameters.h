@@ -22,6 +22,8 @@ struct NodeSettings {
   /// feed-forward before a sweep (an unknown valve gain must not become a command).
   double valve_gain = std::numeric_limits<double>::quiet_NaN();
   double feed_forward_max_age = 0.05;  ///< [s] an older pressure_setpoint is not used
+  double feed_forward_slew_rate = 100.0;    ///< [V/s] fastest change of the feed-forward command
+  double feed_forward_parameter_rate = 0.5;  ///< [1/s] fastest relative change of a parameter it uses
 };
 
 /// A list of strings: a YAML list, or one string "a,b" / "[a, b]" as given on a command line (commas
