@@ -52,7 +52,7 @@ void FeedForwardPublisher::publish(double stamp, double voltage) {
 }
 
 void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& model, const ParameterVector& physical,
-                                  bool model_ready, const ServoValveParameters* valve) {
+                                  bool model_ready, const ServoValveParameters* valve, const std::string& experiment) {
   std::lock_guard<std::mutex> lock(mutex_);
   const double dt = std::isfinite(last_t_) && g.t > last_t_ ? g.t - last_t_ : 0.0;
   // The velocity previewed over the valve's lag with the acceleration of the last grid step (bounded: a
@@ -68,6 +68,7 @@ void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& mod
     withdrawn_ = interlock_.lastOutput() == 0.0;
   };
   if (!reference_.received()) return stop("no pressure_setpoint received yet");
+  if (!experiment.empty()) return stop(experiment + " owns the valve: the feed-forward waits until it ends");
   if (!model_ready) return stop("the estimator has not identified the model yet (the press must stroke)");
   if (!valve && !std::isfinite(configured_gain_)) {
     return stop("the valve gain is unknown: run a sweep (~start_sweep) or set ~valve_gain");

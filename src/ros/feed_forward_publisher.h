@@ -31,8 +31,9 @@ class FeedForwardPublisher {
 
   /// Called by the node (under its lock) for each grid sample with the current model and estimate;
   /// `valve` is the identified valve model, or null.
+  /// `experiment`: a valve experiment (sweep, step test) owns the valve: the feed-forward ramps out.
   void update(const GridSample& g, const HydraulicModel& model, const ParameterVector& physical,
-              bool model_ready, const ServoValveParameters* valve);
+              bool model_ready, const ServoValveParameters* valve, const std::string& experiment = "");
   /// The model was rebuilt (effects changed): the next update starts afresh.
   void modelChanged();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const;

@@ -203,8 +203,11 @@ void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
 void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier) {
   if (auto ranking = monitor_->addSample(g, identifier)) publishRanking(*ranking);
   analyzeStepTest(g.t);
+  // One experiment on the valve at a time: a sweep and a step test refuse each other, and either pauses the
+  // feed-forward (its command would add to the experiment's on the cell controller's adder).
+  const std::string experiment = sweep_.running() ? "a valve sweep" : (step_test_.running() ? "a step test" : "");
   feed_forward_->update(g, identifier.model(), identifier.physicalParameters(), monitor_->estimatorStarted(),
-                        last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr);
+                        last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr, experiment);
 }
 
 void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identifier) {
