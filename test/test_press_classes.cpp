@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "bag_analysis.h"
 #include "tool_runner.h"
 
 namespace {
@@ -74,28 +75,11 @@ Recorded record(const Case& c) {
   return r;
 }
 
-struct Analysis {
-  int status = -1;
-  YAML::Node summary;
-  std::string output;
-};
+using Analysis = die_cushion_ident::testing::BagAnalysis;
+using die_cushion_ident::testing::summaryParameter;
 
 Analysis analyze(const Recorded& r, const std::string& out, const std::string& extra = "") {
-  const auto result = run(kTools + "/analyze_bag " + r.bag + " --out " + out + " --config " + r.config + " --quiet " + extra);
-  Analysis a;
-  a.status = result.status;
-  a.output = result.output;
-  std::ifstream probe(out + "/summary.yaml");
-  if (probe.good()) a.summary = YAML::LoadFile(out + "/summary.yaml");
-  return a;
-}
-
-double parameter(const YAML::Node& summary, const std::string& name) {
-  for (const auto& p : summary["model"]["parameters"]) {
-    if (p["name"].as<std::string>() == name) return p["value"].as<double>();
-  }
-  ADD_FAILURE() << "no parameter " << name;
-  return NAN;
+  return die_cushion_ident::testing::analyzeBag(kTools, r.bag, r.config, out, extra, kWork + "/last_output.txt");
 }
 
 // Any `missing` verdict: a library effect or a formula.
@@ -141,7 +125,7 @@ TEST_F(PressClasses, ACleanPressOfEveryClassReadsRight) {
         ASSERT_EQ(a.status, 0) << a.output;
         const double noise = a.summary["adequacy"]["noise_rms"].as<double>();
         const double error = a.summary["fit"]["simulation_error_rms"].as<double>();
-        const double bulk = parameter(a.summary, "bulk_modulus") / r.truth["bulk_modulus"].as<double>() - 1.0;
+        const double bulk = summaryParameter(a.summary, "bulk_modulus") / r.truth["bulk_modulus"].as<double>() - 1.0;
         std::printf("%-48s clean: free run %.2f bar (%.2fx noise), K' %+.1f %%, period %g ms, missing:%s\n",
                     c.name().c_str(), 1e-5 * error, error / noise, 100.0 * bulk,
                     1e3 * a.summary["settings"]["sample_period"]["value"].as<double>(), missingVerdicts(a.summary).c_str());
@@ -173,8 +157,8 @@ TEST_F(PressClasses, EveryLibraryEffectIsFoundOnEveryClassAndItsParameterRight) 
           ASSERT_EQ(fixed.status, 0) << fixed.output;
           const double noise = fixed.summary["adequacy"]["noise_rms"].as<double>();
           const double error = fixed.summary["fit"]["simulation_error_rms"].as<double>();
-          const double bulk = parameter(fixed.summary, "bulk_modulus") / r.truth["bulk_modulus"].as<double>() - 1.0;
-          const double effect = parameter(fixed.summary, kEffectParameter[e]) / r.truth[kEffectParameter[e]].as<double>() - 1.0;
+          const double bulk = summaryParameter(fixed.summary, "bulk_modulus") / r.truth["bulk_modulus"].as<double>() - 1.0;
+          const double effect = summaryParameter(fixed.summary, kEffectParameter[e]) / r.truth[kEffectParameter[e]].as<double>() - 1.0;
           std::printf("%-48s top %s %s; added: free run %.2f bar (%.2fx noise), K' %+.1f %%, %s %+.1f %%\n",
                       c.name().c_str(), top["effect"].as<std::string>().c_str(), top["verdict"].as<std::string>().c_str(),
                       1e-5 * error, error / noise, 100.0 * bulk, kEffectParameter[e].c_str(), 100.0 * effect);

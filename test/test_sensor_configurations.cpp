@@ -7,6 +7,7 @@
 // continuous signal generator.
 #include <gtest/gtest.h>
 
+#include "bag_analysis.h"
 #include "tool_runner.h"
 #include <sys/wait.h>
 #include <yaml-cpp/yaml.h>
@@ -114,33 +115,12 @@ std::string configFile(const SensorConfiguration& c) {
   return path;
 }
 
-struct Analysis {
-  int status = -1;
-  YAML::Node summary;
-  std::string output;
-};
+using Analysis = die_cushion_ident::testing::BagAnalysis;
+using die_cushion_ident::testing::summaryParameter;
 
 Analysis analyze(const std::string& bag, const std::string& config, const std::string& out,
                  const std::string& extra = "") {
-  const CommandResult r = run(kTools + "/analyze_bag " + bag + " --out " + out + " --config " + config +
-                              " --quiet " + extra);
-  Analysis a;
-  a.status = r.status;
-  a.output = r.output;
-  std::ifstream probe(out + "/summary.yaml");
-  if (probe.good()) a.summary = YAML::LoadFile(out + "/summary.yaml");
-  return a;
-}
-
-double parameter(const YAML::Node& summary, const std::string& name, double* std = nullptr) {
-  for (const auto& p : summary["model"]["parameters"]) {
-    if (p["name"].as<std::string>() == name) {
-      if (std) *std = p["std"].as<double>();
-      return p["value"].as<double>();
-    }
-  }
-  ADD_FAILURE() << "no parameter " << name;
-  return NAN;
+  return die_cushion_ident::testing::analyzeBag(kTools, bag, config, out, extra, kWork + "/last_output.txt");
 }
 
 class SensorMatrix : public ::testing::TestWithParam<std::string> {
@@ -195,7 +175,7 @@ TEST_P(SensorMatrix, EveryConfigurationGivesTheFullSensorVerdict) {
     EXPECT_LT(error, 4.0 * kPressureNoise) << "free-run error with the right model, Pa";
     const auto relative = [&](const std::string& name, double* relative_std = nullptr) {
       double std = 0.0;
-      const double value = parameter(fixed.summary, name, &std);
+      const double value = summaryParameter(fixed.summary, name, &std);
       if (relative_std) *relative_std = std / kTruth.at(name);
       return std::abs(value / kTruth.at(name) - 1.0);
     };
@@ -210,7 +190,7 @@ TEST_P(SensorMatrix, EveryConfigurationGivesTheFullSensorVerdict) {
     std::printf("%-14s %-38s top %-14s %-12s free-run %.2f bar (noise 0.2)  K' %+.1f %%  delay_x %.2f ms\n",
                 effect.c_str(), c.name().c_str(), candidate["effect"].as<std::string>().c_str(),
                 candidate["verdict"].as<std::string>().c_str(), error * 1e-5,
-                100 * (parameter(fixed.summary, "bulk_modulus") / kTruth.at("bulk_modulus") - 1.0),
+                100 * (summaryParameter(fixed.summary, "bulk_modulus") / kTruth.at("bulk_modulus") - 1.0),
                 base.summary["input"]["topic_delays"]["position"].as<double>() * 1e3);
   }
 }

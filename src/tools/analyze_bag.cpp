@@ -102,19 +102,74 @@ struct BagPass {
   double first = NAN, last = NAN;   // [s] record times of the first and last message
 };
 
-// Feeds the input topics of `path` to `analysis` in recorded order (BagStreamReader: memory independent of
-// the recording's length, damage ends the reading with a reason); counts per topic in `input`.
-// Where the messages go: first to the survey that chooses the settings, then to the analysis built with them.
-class MessageSink {
+// Where the messages go: the survey keeps the recording's first seconds; once it is complete (or the bag
+// ends) it chooses the settings, and the analysis starts with them on what was kept, then takes the rest as
+// it comes. Without a survey (--fixed-settings, a second reading) the analysis takes them from the start.
+class SurveyThenAnalysis {
  public:
-  virtual ~MessageSink() = default;
+  SurveyThenAnalysis(const IdentificationConfig& config, const std::set<std::string>& configured, bool survey, int jobs,
+                     const std::function<void(const std::string&)>& log)
+      : config_(config), jobs_(jobs), log_(log) {
+    if (survey) {
+      survey_ = std::make_unique<SettingsFromRecording>(config, configured);
+    } else {
+      start(config);
+    }
+  }
   /// [s] how long the bag's index says the recording is (a hint for reserving memory).
-  virtual void expect(double seconds) = 0;
-  virtual void push(InputStream stream, const StreamSample& sample) = 0;
+  void expect(double seconds) {
+    expected_ = seconds;
+    if (analysis_) analysis_->reserve(expected_, 48 * 3600.0);
+  }
+  void push(InputStream stream, const StreamSample& sample) {
+    if (analysis_) {
+      analysis_->push(stream, sample);
+    } else if (!survey_->push(stream, sample)) {
+      chooseAndStart();
+    }
+  }
+  /// The analysis, its settings chosen (at the end of a recording shorter than the survey, now).
+  OfflineAnalysis& analysis() {
+    if (!analysis_) chooseAndStart();
+    return *analysis_;
+  }
+  const std::optional<SettingsChoice>& choice() const { return choice_; }
+  const IdentificationConfig& config() const { return config_; }
+
+ private:
+  void start(const IdentificationConfig& config) {
+    config_ = config;
+    analysis_ = std::make_unique<OfflineAnalysis>(config_);
+    analysis_->setJobs(jobs_);
+    if (expected_ > 0.0) analysis_->reserve(expected_, 48 * 3600.0);
+  }
+  void chooseAndStart() {
+    log_("choosing the sample period and filters from the recording's first " +
+         formatted("%.0f s", survey_->messages().empty() ? 0.0
+                                                          : survey_->messages().back().second.stamp -
+                                                                survey_->messages().front().second.stamp));
+    choice_ = survey_->choose();
+    for (const auto& setting : choice_->settings) {
+      log_(setting.key + " = " + formatted("%g", setting.value) + ": " + setting.reason);
+    }
+    start(choice_->config);
+    for (const auto& [stream, sample] : survey_->messages()) analysis_->push(stream, sample);
+    survey_.reset();
+  }
+
+  IdentificationConfig config_;
+  int jobs_;
+  std::function<void(const std::string&)> log_;
+  std::unique_ptr<SettingsFromRecording> survey_;
+  std::unique_ptr<OfflineAnalysis> analysis_;
+  std::optional<SettingsChoice> choice_;
+  double expected_ = 0.0;
 };
 
+// Feeds the input topics of `path` to `analysis` in recorded order (BagStreamReader: memory independent of
+// the recording's length, damage ends the reading with a reason); counts per topic in `input`.
 BagPass readInputs(const std::string& path, const std::string names[], const std::string& joint_name,
-                   MessageSink& analysis, AnalysisInput& input, const std::function<void(const std::string&)>& log) {
+                   SurveyThenAnalysis& analysis, AnalysisInput& input, const std::function<void(const std::string&)>& log) {
   static const char* const kTypes[kInputStreamCount] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
                                                        "die_cushion_ident/ValveSignal"};
   static const std::string kMd5[kInputStreamCount] = {
@@ -224,79 +279,6 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   return pass;
 }
 
-// The survey keeps the recording's first seconds; once it is complete (or the bag ends) it chooses the
-// settings, and the analysis starts with them on what was kept, then takes the rest as it comes.
-class SurveyThenAnalysis : public MessageSink {
- public:
-  SurveyThenAnalysis(const IdentificationConfig& config, const std::set<std::string>& configured, bool survey, int jobs,
-                     const std::function<void(const std::string&)>& log)
-      : config_(config), jobs_(jobs), log_(log) {
-    if (survey) {
-      survey_ = std::make_unique<SettingsFromRecording>(config, configured);
-    } else {
-      start(config);
-    }
-  }
-  void expect(double seconds) override {
-    expected_ = seconds;
-    if (analysis_) analysis_->reserve(expected_, 48 * 3600.0);
-  }
-  void push(InputStream stream, const StreamSample& sample) override {
-    if (analysis_) {
-      analysis_->push(stream, sample);
-    } else if (!survey_->push(stream, sample)) {
-      chooseAndStart();
-    }
-  }
-  /// The analysis, its settings chosen (at the end of a recording shorter than the survey, now).
-  OfflineAnalysis& analysis() {
-    if (!analysis_) chooseAndStart();
-    return *analysis_;
-  }
-  const std::optional<SettingsChoice>& choice() const { return choice_; }
-  const IdentificationConfig& config() const { return config_; }
-
- private:
-  void start(const IdentificationConfig& config) {
-    config_ = config;
-    analysis_ = std::make_unique<OfflineAnalysis>(config_);
-    analysis_->setJobs(jobs_);
-    if (expected_ > 0.0) analysis_->reserve(expected_, 48 * 3600.0);
-  }
-  void chooseAndStart() {
-    log_("choosing the sample period and filters from the recording's first " +
-         formatted("%.0f s", survey_->messages().empty() ? 0.0
-                                                          : survey_->messages().back().second.stamp -
-                                                                survey_->messages().front().second.stamp));
-    choice_ = survey_->choose();
-    for (const auto& setting : choice_->settings) {
-      log_(setting.key + " = " + formatted("%g", setting.value) + ": " + setting.reason);
-    }
-    start(choice_->config);
-    for (const auto& [stream, sample] : survey_->messages()) analysis_->push(stream, sample);
-    survey_.reset();
-  }
-
-  IdentificationConfig config_;
-  int jobs_;
-  std::function<void(const std::string&)> log_;
-  std::unique_ptr<SettingsFromRecording> survey_;
-  std::unique_ptr<OfflineAnalysis> analysis_;
-  std::optional<SettingsChoice> choice_;
-  double expected_ = 0.0;
-};
-
-// The analysis with settings already chosen (a second reading).
-class DirectAnalysis : public MessageSink {
- public:
-  explicit DirectAnalysis(OfflineAnalysis& analysis) : analysis_(analysis) {}
-  void expect(double seconds) override { analysis_.reserve(seconds, 48 * 3600.0); }
-  void push(InputStream stream, const StreamSample& sample) override { analysis_.push(stream, sample); }
-
- private:
-  OfflineAnalysis& analysis_;
-};
-
 std::string milliseconds(double seconds) {
   char text[32];
   std::snprintf(text, sizeof(text), "%+.2f ms", seconds * 1e3);
@@ -353,7 +335,7 @@ int run(int argc, char** argv) {
   BagPass pass = readInputs(options.bag, names, topics.joint_name, surveyed, input, log);
   OfflineAnalysis* analysis = &surveyed.analysis();
   config = surveyed.config();
-  std::unique_ptr<OfflineAnalysis> reread;
+  std::unique_ptr<SurveyThenAnalysis> reread;  // without a survey: the settings are chosen already
   if (pass.present.empty()) {
     fail(3, "none of the input topics " + names[0] + ", " + names[1] + ", " + names[2] + " is in '" + options.bag +
                 "'; it holds:" + (pass.listing.empty() ? std::string("\n  (nothing: the bag is empty)") : pass.listing) +
@@ -378,11 +360,9 @@ int run(int argc, char** argv) {
       config.topic_delays = delays->delays;
       log("position stamps " + milliseconds(delays->delays[1]) + ", valve stamps " +
           milliseconds(delays->delays[2]) + " against pressure: reading again with the stamps corrected");
-      reread = std::make_unique<OfflineAnalysis>(config);
-      reread->setJobs(options.jobs);
-      analysis = reread.get();
-      DirectAnalysis sink(*analysis);
-      pass = readInputs(options.bag, names, topics.joint_name, sink, input, log);
+      reread = std::make_unique<SurveyThenAnalysis>(config, configured, false, options.jobs, log);
+      pass = readInputs(options.bag, names, topics.joint_name, *reread, input, log);
+      analysis = &reread->analysis();
     }
   }
   input.duration = std::isfinite(pass.last - pass.first) ? pass.last - pass.first : 0.0;

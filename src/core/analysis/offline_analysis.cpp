@@ -323,8 +323,9 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
     // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
   } else if (r.hydraulics) {
-    // Refined by the free run's error where that lowers it, unless the fit is implausible (then the
-    // model does not describe the recording, and fitting its free run would hide that).
+    // Refined by the free run's error where that brings it to the noise (refineByOutputError), unless the
+    // fit is implausible (then the model does not describe the recording, and fitting its free run would
+    // hide that).
     if (!r.partial) {
       tell("refining the parameters by the free run's error");
       r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),

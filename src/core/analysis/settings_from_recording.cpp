@@ -406,7 +406,6 @@ SettingsChoice SettingsFromRecording::choose() const {
   c.moving_average_width = chosen_config.moving_average_width;
   c.derivative_width = chosen_config.derivative_width;
   c.identification_period = chosen_config.identification_period;
-  c.velocity_window = std::max(config_.velocity_window, 2.0 * c.resampler.sample_period);
   for (ChosenSetting& setting : choice.settings) {
     if (!configured_.count(setting.key)) continue;
     setting.configured = true;
