@@ -162,13 +162,47 @@ TEST_F(PressClasses, EveryLibraryEffectIsFoundOnEveryClassAndItsParameterRight) 
           std::printf("%-48s top %s %s; added: free run %.2f bar (%.2fx noise), K' %+.1f %%, %s %+.1f %%\n",
                       c.name().c_str(), top["effect"].as<std::string>().c_str(), top["verdict"].as<std::string>().c_str(),
                       1e-5 * error, error / noise, 100.0 * bulk, kEffectParameter[e].c_str(), 100.0 * effect);
-          EXPECT_LE(error, 3.0 * noise)
-              << "free run within three times the noise once the effect is added";
+          // Or the analysis says that the recording's rate limits it, and what to record instead: a fast
+          // press's position at 500 Hz (its 4 ms impact in two messages) left 5 times the noise with the
+          // valve's overlap added, and 1.5 times at 1 kHz.
+          const bool resolution_limited = fixed.summary["adequacy"]["resolution_limited"].as<bool>();
+          if (resolution_limited) {
+            EXPECT_NE(fixed.summary["settings"]["resolution_limit"].as<std::string>(""), "");
+            EXPECT_NE(fixed.summary["adequacy"]["conclusion"].as<std::string>().find("record the"), std::string::npos)
+                << "a resolution-limited verdict names the rate to record at";
+          } else {
+            EXPECT_LE(error, 3.0 * noise) << "free run within three times the noise once the effect is added";
+          }
           EXPECT_LT(std::abs(bulk), 0.10) << "bulk modulus within 10 %";
           EXPECT_LT(std::abs(effect), 0.20) << kEffectParameter[e] << " within 20 %";
         }
       }
     }
+  }
+}
+
+// A fast press seen through a cell's sensors: the position at 500 Hz among three joints without velocity,
+// stamped 12 ms late, the valve 4 ms late. The position's offset, estimated by the integral form 0.08 ms off
+// (within its stated std), left 6 times the noise and a dead volume 54 % off; refined by the free run it
+// comes to about twice the noise. Nothing is called missing; where the rate limits the analysis it says so.
+TEST_F(PressClasses, AFastPressThroughACellsSlowLateSensorsReadsRight) {
+  const Case c{"fast_mechanical", "none",
+               "--no-velocity --joints ram,cushion,holder --rates 2000,500,1000 --stamp-offsets 0,0.012,0.004", 4, 1};
+  const Recorded r = record(c);
+  const Analysis a = analyze(r, kWork + "/" + c.name());
+  ASSERT_EQ(a.status, 0) << a.output;
+  const double noise = a.summary["adequacy"]["noise_rms"].as<double>();
+  const double error = a.summary["fit"]["simulation_error_rms"].as<double>();
+  const double offset = a.summary["input"]["topic_delays"]["position"].as<double>();
+  std::printf("%-48s free run %.2fx noise, position offset %.3f ms, position-rate error %.2f bar\n", c.name().c_str(),
+              error / noise, 1e3 * offset, 1e-5 * a.summary["settings"]["position_rate_error"].as<double>(0.0));
+  EXPECT_EQ(missingVerdicts(a.summary), "") << a.summary["adequacy"]["conclusion"];
+  EXPECT_NEAR(offset, 0.012, 1e-4) << "the position's clock offset, refined by the free run";
+  EXPECT_LE(error, 3.0 * noise);
+  EXPECT_GT(a.summary["settings"]["position_rate_error"].as<double>(0.0), 0.0)
+      << "the position topic's rate is studied where it is slower than the grid";
+  for (const char* parameter : {"bulk_modulus", "dead_volume"}) {
+    EXPECT_NEAR(summaryParameter(a.summary, parameter) / r.truth[parameter].as<double>(), 1.0, 0.20) << parameter;
   }
 }
 

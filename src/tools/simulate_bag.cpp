@@ -202,6 +202,8 @@ int run(int argc, char** argv) {
          << "): its geometry for analyze_bag --config.\n"
          << "piston_area: " << plant.geometry.piston_area << "\nstroke_length: " << plant.geometry.stroke_length
          << "\nsupply_pressure: " << plant.geometry.supply_pressure << "\n";
+    // Several joints on the position topic: the cushion's name, as its user would configure it.
+    if (recording.joints.size() > 1) file << "joint_name: " << recording.cushion_joint << "\n";
     if (!file) {
       std::cerr << "simulate_bag: cannot write " << config_out << "\n";
       return 1;

@@ -80,8 +80,10 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
       const auto [fit_begin, fit_end] = strokes.range(fit_first, fit_last);
       const std::vector<GridSample> training(grid.begin() + std::min(fit_begin, grid.size()),
                                              grid.begin() + std::min(fit_end, grid.size()));
+      OutputErrorOptions without_stds;
+      without_stds.with_stds = false;
       const OutputErrorFit refined = refineByOutputError(
-          training, model, theta, fits[which]->estimate().standardDeviations(), config.min_pressure, false);
+          training, model, theta, fits[which]->estimate().standardDeviations(), config.min_pressure, without_stds);
       if (refined.improved) theta = refined.theta;
     }
     FreeRunPressure free_run(model, config.min_pressure);

@@ -16,14 +16,14 @@ namespace {
 // The step-size control's decisions change discontinuously with the parameters; a tight tolerance keeps
 // that roughness far below the differences the numeric derivatives take.
 constexpr double kTolerance = 1.0;  // [Pa]
-// The refinement is kept up to this multiple of the pressure noise.
-constexpr double kKeptUpToNoise = 2.5;
 // ... and tried only up to this multiple (to save the time on models that lack an effect): the equation-
 // error fit itself left up to 10 times the noise on fast presses with a valve overlap (a dead volume 30 %
 // off), which the refinement brought to the noise.
 constexpr double kWorthRefining = 15.0;
 // Blocks of the recording whose scores are taken as independent for the stds.
 constexpr std::size_t kBlocks = 8;
+// The position's shift is searched within this many of its units (refineByOutputError's position_shift_scale).
+constexpr double kMaxShiftUnits = 3.0;
 
 // Measured minus free-run pressure at every sample (0 where the free run is anchored or has no value).
 void freeRunResiduals(const std::vector<GridSample>& grid, std::size_t n, const HydraulicModel& model,
@@ -41,16 +41,45 @@ void freeRunResiduals(const std::vector<GridSample>& grid, std::size_t n, const 
   if (valid) *valid = count;
 }
 
+}  // namespace
+
+std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std::size_t n, double shift) {
+  std::vector<GridSample> shifted(grid.begin(), grid.begin() + static_cast<std::ptrdiff_t>(n));
+  if (n < 4) return shifted;
+  const double period = (grid[n - 1].t - grid[0].t) / static_cast<double>(n - 1);
+  const double offset = shift / period;
+  const long whole = static_cast<long>(std::floor(offset));
+  const double w = offset - static_cast<double>(whole);
+  const auto at = [&](long i) { return &grid[static_cast<std::size_t>(std::clamp(i, 0L, static_cast<long>(n) - 1))]; };
+  const auto cubic = [w](double before, double a, double b, double after) {
+    return a + 0.5 * w * (b - before + w * (2.0 * before - 5.0 * a + 4.0 * b - after + w * (3.0 * (a - b) + after - before)));
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const long j = static_cast<long>(i) + whole;
+    const GridSample *before = at(j - 1), *a = at(j), *b = at(j + 1), *after = at(j + 2);
+    shifted[i].x = static_cast<float>(cubic(before->x, a->x, b->x, after->x));
+    shifted[i].v = static_cast<float>(cubic(before->v, a->v, b->v, after->v));
+  }
+  return shifted;
+}
+
+namespace {
+
 struct FreeRunError {
   const std::vector<GridSample>* grid;
   std::size_t n;
   const HydraulicModel* model;
   ParameterVector scale;
   double min_pressure;
+  double shift_scale = 0.0;  // [s] the unit of the position's shift; 0: not an unknown
   bool operator()(double const* const* x, double* out) const {
     ParameterVector theta(scale.size());
     for (Eigen::Index i = 0; i < scale.size(); ++i) theta(i) = x[0][i] * scale(i);
-    freeRunResiduals(*grid, n, *model, theta, min_pressure, out);
+    if (shift_scale > 0.0) {
+      freeRunResiduals(positionShifted(*grid, n, (x[1][0] - 1.0) * shift_scale), n, *model, theta, min_pressure, out);
+    } else {
+      freeRunResiduals(*grid, n, *model, theta, min_pressure, out);
+    }
     for (std::size_t i = 0; i < n; ++i) {
       if (!std::isfinite(out[i])) return false;
     }
@@ -68,11 +97,12 @@ double rmsOf(const std::vector<double>& r, int valid) {
 
 OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const HydraulicModel& model,
                                    const ParameterVector& start, const ParameterVector& start_std,
-                                   double min_pressure, bool with_stds, std::size_t max_samples) {
+                                   double min_pressure, const OutputErrorOptions& refine) {
+  const double position_shift_scale = refine.position_shift_scale;
   OutputErrorFit fit;
   fit.theta = start;
   fit.std = start_std;
-  const std::size_t n = std::min(grid.size(), max_samples);
+  const std::size_t n = std::min(grid.size(), refine.max_samples);
   const Eigen::Index k = start.size();
   if (n < 100 || k == 0 || !start.allFinite()) {
     fit.message = "too little to refine";
@@ -109,12 +139,23 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   for (Eigen::Index i = 0; i < k; ++i) x[i] = start(i) / scale(i);
   ceres::NumericDiffOptions differences;
   differences.relative_step_size = 1e-4;
+  const bool shifting = position_shift_scale > 0.0;
+  // The shift in units of position_shift_scale, plus 1: Ceres's relative difference step needs a non-zero start.
+  double shift = 1.0;
   auto* cost = new ceres::DynamicNumericDiffCostFunction<FreeRunError, ceres::FORWARD>(
-      new FreeRunError{&grid, n, &model, scale, min_pressure}, ceres::TAKE_OWNERSHIP, differences);
+      new FreeRunError{&grid, n, &model, scale, min_pressure, shifting ? position_shift_scale : 0.0},
+      ceres::TAKE_OWNERSHIP, differences);
   cost->AddParameterBlock(static_cast<int>(k));
+  if (shifting) cost->AddParameterBlock(1);
   cost->SetNumResiduals(static_cast<int>(n));
   ceres::Problem problem;
-  problem.AddResidualBlock(cost, nullptr, x.data());
+  if (shifting) {
+    problem.AddResidualBlock(cost, nullptr, x.data(), &shift);
+    problem.SetParameterLowerBound(&shift, 0, 1.0 - kMaxShiftUnits);
+    problem.SetParameterUpperBound(&shift, 0, 1.0 + kMaxShiftUnits);
+  } else {
+    problem.AddResidualBlock(cost, nullptr, x.data());
+  }
   const auto& infos = model.parameterInfos();
   for (Eigen::Index i = 0; i < k && static_cast<std::size_t>(i) < infos.size(); ++i) {
     // Within the physical range (the bounds in units of the scale; a scale is positive).
@@ -131,7 +172,10 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
 
   ParameterVector theta(k);
   for (Eigen::Index i = 0; i < k; ++i) theta(i) = x[i] * scale(i);
-  freeRunResiduals(grid, n, model, theta, min_pressure, r.data(), &valid);
+  const std::vector<GridSample> shifted =
+      shifting ? positionShifted(grid, n, (shift - 1.0) * position_shift_scale) : std::vector<GridSample>();
+  const std::vector<GridSample>& fitted = shifting ? shifted : grid;
+  freeRunResiduals(fitted, n, model, theta, min_pressure, r.data(), &valid);
   const double rms = rmsOf(r, valid);
   if (!(rms < fit.start_rms) || !theta.allFinite()) {
     fit.message = formatted("the free run's error did not fall (%.3g -> %.3g bar): the equation-error estimate kept",
@@ -142,53 +186,67 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   // was all that was left. Where a structured error remains, the model lacks something; refining it would
   // spread that error over the stroke (a missing leakage's hold error moved into the impact) and hide part
   // of it from the held-out tests, and the equation-error estimate shows where it is made.
-  if (!(std::isfinite(fit.noise) && rms <= kKeptUpToNoise * fit.noise)) {
+  if (!(std::isfinite(fit.noise) && rms <= refine.kept_up_to_noise * fit.noise)) {
     fit.message = formatted("free-run error %.3g -> %.3g bar, not kept: %.2f times the pressure noise (%.3g bar) "
                             "remain, more than %.1f: the model lacks something, and the equation-error estimate "
                             "shows where",
-                            1e-5 * fit.start_rms, 1e-5 * rms, rms / fit.noise, 1e-5 * fit.noise, kKeptUpToNoise);
+                            1e-5 * fit.start_rms, 1e-5 * rms, rms / fit.noise, 1e-5 * fit.noise, refine.kept_up_to_noise);
     return fit;
   }
   fit.improved = true;
   fit.theta = theta;
+  fit.position_shift = shifting ? (shift - 1.0) * position_shift_scale : 0.0;
   fit.rms = rms;
   fit.samples = valid;
   fit.message = formatted("free-run error %.3g -> %.3g bar over %.0f samples (%.0f Ceres iterations)",
                           1e-5 * fit.start_rms, 1e-5 * rms, valid, summary.iterations.size());
-  if (!with_stds) return fit;
+  if (!refine.with_stds) return fit;
 
   // The stds: the sandwich (J'J)^-1 S (J'J)^-1 with S from the scores g_t = J_t r_t summed over blocks of
   // the recording treated as independent (cluster-robust): a free run's residuals stay correlated over a
   // whole press cycle (a shut valve carries an error through the hold), and Bartlett weights over 300 ms
   // left the stds a third of the errors on fast presses. J by central differences at the solution.
-  Eigen::MatrixXd jacobian(n, k);
+  // The position's shift, where it was an unknown, is one more column.
+  const Eigen::Index columns = k + (shifting ? 1 : 0);
+  Eigen::MatrixXd jacobian(n, columns);
   std::vector<double> plus(n), minus(n);
   for (Eigen::Index i = 0; i < k; ++i) {
     const double h = 1e-4 * std::max(std::abs(theta(i)), scale(i) * 1e-3);
     ParameterVector t = theta;
     t(i) += h;
-    freeRunResiduals(grid, n, model, t, min_pressure, plus.data());
+    freeRunResiduals(fitted, n, model, t, min_pressure, plus.data());
     t(i) = theta(i) - h;
-    freeRunResiduals(grid, n, model, t, min_pressure, minus.data());
+    freeRunResiduals(fitted, n, model, t, min_pressure, minus.data());
     // r = p - p_hat: d p_hat / d theta = -(dr / d theta)
     for (std::size_t s = 0; s < n; ++s) jacobian(s, i) = -(plus[s] - minus[s]) / (2.0 * h);
   }
+  if (shifting) {
+    const double h = 1e-2 * position_shift_scale;
+    freeRunResiduals(positionShifted(grid, n, fit.position_shift + h), n, model, theta, min_pressure, plus.data());
+    freeRunResiduals(positionShifted(grid, n, fit.position_shift - h), n, model, theta, min_pressure, minus.data());
+    for (std::size_t s = 0; s < n; ++s) jacobian(s, k) = -(plus[s] - minus[s]) / (2.0 * h);
+  }
   const Eigen::MatrixXd information = jacobian.transpose() * jacobian;
   const std::size_t block = std::max<std::size_t>(n / kBlocks, 1);
-  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(k, k);
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(columns, columns);
   int blocks = 0;
   for (std::size_t first = 0; first + block <= n; first += block, ++blocks) {
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(k);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(columns);
     for (std::size_t s = first; s < first + block; ++s) g += jacobian.row(s).transpose() * r[s];
     meat += g * g.transpose();
   }
   if (blocks > 1) meat *= static_cast<double>(blocks) / (blocks - 1);
   const Eigen::LDLT<Eigen::MatrixXd> solver(information);
-  const Eigen::MatrixXd bread = solver.solve(Eigen::MatrixXd::Identity(k, k));
+  const Eigen::MatrixXd bread = solver.solve(Eigen::MatrixXd::Identity(columns, columns));
   const Eigen::MatrixXd covariance = bread * meat * bread;
   for (Eigen::Index i = 0; i < k; ++i) {
     const double variance = covariance(i, i);
     fit.std(i) = variance > 0.0 && std::isfinite(variance) ? std::sqrt(variance) : start_std(i);
+  }
+  if (shifting) {
+    const double variance = covariance(k, k);
+    fit.position_shift_std =
+        variance > 0.0 && std::isfinite(variance) ? std::sqrt(variance) : std::numeric_limits<double>::infinity();
   }
   return fit;
 }

@@ -11,6 +11,7 @@
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/analysis/model_assessment.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/analysis/output_error_refinement.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/model/effect_library.h"
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
@@ -29,6 +30,10 @@ constexpr double kIdentificationPeriod = 0.010;  // [s]
 // The candidate periods: the paper's 2 ms halved down to 0.25 ms.
 constexpr double kCoarsestPeriod = 0.002;
 constexpr double kFinestPeriod = 0.00025;
+// The free run converges where its own numerical error is below this share of its change as the period
+// halves, and that change falls by at least this ratio from one halving to the next.
+constexpr double kConvergingShare = 0.2;
+constexpr double kConvergingRatio = 1.3;
 
 int oddSamples(double seconds, double period, int lowest) {
   int n = static_cast<int>(std::lround(seconds / period));
@@ -150,6 +155,103 @@ double changeBetween(const Level& coarse, const Level& fine, double fine_period)
     ++n;
   }
   return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The messages with all but every `factor`-th of one stream dropped.
+Messages thinned(const Messages& messages, InputStream stream, int factor) {
+  Messages kept;
+  kept.reserve(messages.size());
+  std::size_t count = 0;
+  for (const auto& message : messages) {
+    if (message.first == stream && count++ % factor != 0) continue;
+    kept.push_back(message);
+  }
+  return kept;
+}
+
+// The grid study above halves the sample period, but a grid finer than a topic's messages only interpolates
+// them: a fast press's 4 ms impact seen by a position topic at 500 Hz leaves the free run 6 times the noise
+// off whatever the period (1.9 times at 1 kHz). The position's own rate is studied like the period: the free
+// run of the same parameters with every second and every fourth position message dropped; its change, by
+// Richardson's estimate, is the error the position's rate leaves. (The valve topic is not thinned: its
+// command is held between messages by the amplifier, so thinning it makes an error the recording does not
+// have.)
+void studyPositionRate(const Messages& messages, const IdentificationConfig& at_chosen, const HydraulicModel& model,
+                       const ParameterVector& theta, const Level& native, double allowed_change, double noise,
+                       SettingsChoice& choice) {
+  const double interval = choice.survey.message_interval[static_cast<int>(InputStream::kPosition)];
+  const double period = at_chosen.resampler.sample_period;
+  if (!(interval > 1.5 * period)) return;
+  const auto freeRunWithEvery = [&](int factor) {
+    Level thinned_level = levelAt(at_chosen, thinned(messages, InputStream::kPosition, factor));
+    runFree(model, theta, at_chosen.min_pressure, &thinned_level);
+    return thinned_level;
+  };
+  const Level half_rate = freeRunWithEvery(2);
+  const double change = changeBetween(half_rate, native, period);
+  const double earlier_change = changeBetween(freeRunWithEvery(4), half_rate, period);
+  if (!std::isfinite(change)) return;
+  const double order = std::isfinite(earlier_change) && change > 0.0
+                           ? std::clamp(std::log2(earlier_change / change), 1.0, 4.0)
+                           : 1.0;
+  choice.position_rate_error = change / (std::pow(2.0, order) - 1.0);
+  if (!(choice.position_rate_error > allowed_change)) return;
+  const double needed_interval = interval * std::pow(allowed_change / choice.position_rate_error, 1.0 / order);
+  const std::string remedy =
+      formatted("record the position at %.0f Hz or more", 100.0 * std::ceil(0.01 / needed_interval));
+  choice.resolution_remedy = choice.resolution_remedy.empty() ? remedy : choice.resolution_remedy + "; " + remedy;
+  const std::string finding = formatted(
+      "resolution-limited: the position topic comes every %.3g ms, and the free run's error from that rate alone "
+      "is about %.2g bar (pressure noise %.2g bar); ",
+      1e3 * interval, 1e-5 * choice.position_rate_error, 1e-5 * noise);
+  choice.resolution_limit =
+      choice.resolution_limit.empty() ? finding + remedy : choice.resolution_limit + "; " + finding + remedy;
+  // Both errors add to what the grid cannot resolve, independent of each other.
+  choice.resolution_error = std::hypot(std::isfinite(choice.resolution_error) ? choice.resolution_error : 0.0,
+                                       choice.position_rate_error);
+}
+
+// The offset's refinement is kept up to this multiple of the noise: the survey's free run, over its first
+// ten seconds and on the equation-error fit's start, came to 2.6 times the noise on a clean fast press whose
+// offset was right. A model that lacks an effect leaves more (and the shift is bounded to three of the
+// integral-form estimate's stds, and weighed against it).
+constexpr double kDelayKeptUpToNoise = 4.0;
+
+// The free run's offset estimate is uncertain by at least this [s]: its sandwich std (1-5 us) is blind to
+// the model's own timing (the valve's dead time, the derived velocity), and over the press classes it came
+// 0.01-0.06 ms late.
+constexpr double kFreeRunOffsetFloor = 5e-5;
+
+// The position topic's clock offset refined by the free run. On a fast press the free run is so sensitive to
+// it that the integral-form estimate's 0.08 ms (within its stated 0.07 ms) left 6 times the noise and a dead
+// volume 54 % off; the output error, fitted jointly with the parameters, resolves it about ten times finer
+// (a large soft chamber's 0.32 ms off came to 0.07 ms). Where kept it replaces the integral form's estimate,
+// which bounds it (within three of its stds). Tried only where the offsets were estimated and the
+// model's free run comes near the noise (refineByOutputError keeps nothing else: a model that lacks an
+// effect would bend the offset to hide it). The refinement where the offset moved.
+std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, const HydraulicEstimate& fit,
+                                                  const std::vector<GridSample>& grid, SettingsChoice& choice) {
+  if (!choice.delays || !choice.delays->valid || fit.updates == 0 || !fit.values().allFinite()) return std::nullopt;
+  constexpr int kPosition = static_cast<int>(InputStream::kPosition);
+  const double prior = choice.delays->resolution[kPosition];
+  if (!(prior > 0.0)) return std::nullopt;
+  OutputErrorOptions options;
+  options.position_shift_scale = std::max(prior, 1e-4);
+  options.kept_up_to_noise = kDelayKeptUpToNoise;
+  const OutputErrorFit refined =
+      refineByOutputError(grid, model, fit.values(), fit.standardDeviations(), choice.config.min_pressure, options);
+  choice.position_delay_refinement = refined.message;
+  if (!refined.improved || !std::isfinite(refined.position_shift_std)) return std::nullopt;
+  const double shift = refined.position_shift;
+  choice.position_delay_shift = shift;
+  choice.position_delay_shift_std = std::max(refined.position_shift_std, kFreeRunOffsetFloor);
+  choice.config.topic_delays[kPosition] += shift;
+  choice.delays->delays[kPosition] += shift;
+  choice.delays->resolution[kPosition] = choice.position_delay_shift_std;
+  choice.delays->message += formatted("; the position's offset refined by the free run by %+.3f ms (+-%.3f ms)",
+                                      1e3 * refined.position_shift, 1e3 * refined.position_shift_std);
+  if (choice.delays->distinguishable()) choice.delays_applied = true;
+  return refined;
 }
 
 }  // namespace
@@ -284,10 +386,18 @@ SettingsChoice SettingsFromRecording::choose() const {
   const double shortest_drawing = shortestDrawing(levels.back());
   survey.cycles = levels.back().strokes.cycles;
   survey.shortest_drawing = shortest_drawing;
-  const IdentificationConfig finest_config = atPeriod(choice.config, periods.back(), shortest_drawing);
-  const HydraulicEstimate fit = fitOnCycles(levels.back().grid, levels.back().strokes, finest_config, INT_MIN, INT_MAX);
+  const HydraulicEstimate fit = fitOnCycles(levels.back().grid, levels.back().strokes,
+                                      atPeriod(choice.config, periods.back(), shortest_drawing), INT_MIN, INT_MAX);
   const HydraulicModel model =
       HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
+  // The position's offset refined by the free run: the finest level's grid read with it, and the refined
+  // parameters (fitted with it) studied.
+  const std::optional<OutputErrorFit> refined = refinePositionDelay(model, fit, levels.back().grid, choice);
+  if (refined) {
+    Level& finest = levels.back();
+    finest.grid = positionShifted(finest.grid, finest.grid.size(), choice.position_delay_shift);
+    finest.strokes = segmentStrokes(finest.grid);
+  }
   // A configured model that lacks an effect the press has can fit to nonsense (a negative bulk modulus where
   // the tank pressure is missing on a fast press); its free run then says nothing about the grid, and a
   // resolution error read from it would hide the missing effect. Such a fit is not studied: the finest
@@ -296,7 +406,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   const std::vector<std::string> implausible =
       fit.updates > 0 ? implausibleParameters(model, fit, 3.0, &uncertain) : std::vector<std::string>();
   const bool studied = fit.updates > 0 && fit.values().allFinite() && implausible.empty();
-  const ParameterVector theta = studied ? fit.values() : ParameterVector();
+  const ParameterVector theta = !studied ? ParameterVector() : refined ? refined->theta : fit.values();
   const auto level = [&](std::size_t k) -> Level& {
     if (levels[k].grid.empty()) levels[k] = levelAt(atPeriod(choice.config, periods[k], shortest_drawing), messages_);
     if (levels[k].t.empty()) runFree(model, theta, choice.config.min_pressure, &levels[k]);
@@ -349,7 +459,17 @@ SettingsChoice SettingsFromRecording::choose() const {
                              ? std::clamp(std::log2(earlier_change / last_change), 1.0, 4.0)
                              : 1.0;
     choice.resolution_error = last_change / (std::pow(2.0, order) - 1.0);
-    if (choice.resolution_error > allowed_change) {
+    // A free run that moves with its own tolerance as much as with the period, or whose change does not
+    // fall as the period halves, does not converge: that is the configured model failing (a fast press
+    // without its tank pressure ran 51 bar off, 10 bar from its own tolerance), not the grid. No resolution
+    // error is claimed, or it would excuse the missing effect ("resolution-limited: record at 462600 Hz").
+    const double numerical = level(chosen).numerical_error;
+    const bool converging = !(numerical > kConvergingShare * last_change) &&
+                            !(std::isfinite(earlier_change) && earlier_change < kConvergingRatio * last_change);
+    if (!converging) {
+      choice.resolution_error = std::numeric_limits<double>::quiet_NaN();
+      choice.resolution_not_converging = true;
+    } else if (choice.resolution_error > allowed_change) {
       // The period at which the error would fall to the allowed share, at the same order.
       const double needed = chosen_period * std::pow(allowed_change / choice.resolution_error, 1.0 / order);
       choice.resolution_remedy =
@@ -366,6 +486,10 @@ SettingsChoice SettingsFromRecording::choose() const {
     choice.resolution_error = std::numeric_limits<double>::quiet_NaN();
   }
   if (studied) choice.numerical_error = level(chosen).numerical_error;
+  if (studied && !choice.resolution_not_converging) {
+    studyPositionRate(messages_, atPeriod(choice.config, chosen_period, shortest_drawing), model, theta, level(chosen),
+                      allowed_change, noise, choice);
+  }
   const IdentificationConfig chosen_config = atPeriod(choice.config, chosen_period, shortest_drawing);
   std::string period_reason;
   if (!implausible.empty()) {
@@ -379,6 +503,11 @@ SettingsChoice SettingsFromRecording::choose() const {
     period_reason = formatted("the free run's own error there is %.3g bar, from how it changes as the period "
                               "halves (the pressure noise is %.3g bar)",
                               1e-5 * choice.resolution_error, 1e-5 * noise);
+  } else if (choice.resolution_not_converging) {
+    period_reason = formatted("the finest the recording supports (messages every %.3g ms); the configured model's "
+                              "free run does not converge as the period halves (its own numerical error %.2g bar): "
+                              "no resolution error is claimed, the model's error is the ranking's to explain",
+                              1e3 * finest_interval, 1e-5 * choice.numerical_error);
   } else {
     period_reason = formatted("the finest the recording supports (messages every %.3g ms); the free run's own "
                               "error there is about %.2g bar (noise %.3g bar)",

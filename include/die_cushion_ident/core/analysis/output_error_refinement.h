@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -18,18 +19,39 @@ struct OutputErrorFit {
   double rms = 0.0;            ///< [Pa] free-run error of `theta`
   double noise = 0.0;          ///< [Pa] the pressure's white noise on the fitted samples
   int samples = 0;             ///< grid samples fitted
+  /// [s] how much later the position is read where its shift was an unknown (position_shift_scale > 0):
+  /// add it to the position topic's delay.
+  double position_shift = 0.0;
+  double position_shift_std = std::numeric_limits<double>::infinity();  ///< [s] (with_stds)
   std::string message;
+};
+
+/// The first n samples of the grid with the position and velocity read `shift` [s] later (Catmull-Rom
+/// between the grid samples, the free run's own interpolation): the position topic's stamps corrected by
+/// `shift` more, for shifts within a few samples.
+std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std::size_t n, double shift);
+
+/// How refineByOutputError searches and what it keeps.
+struct OutputErrorOptions {
+  bool with_stds = true;             ///< compute the refined stds (a Jacobian more)
+  std::size_t max_samples = 20000;   ///< grid samples fitted, from the first
+  /// The refinement is kept only where its free run is within this multiple of the pressure noise: a larger
+  /// error is the model's, not the fit's.
+  double kept_up_to_noise = 2.5;
+  /// [s] > 0: the position's time shift is an unknown too, searched within three of this unit. On a fast
+  /// press the free run resolves a clock offset ten times finer than the integral-form delay estimate, whose
+  /// 0.08 ms left 6 times the noise (doc/resolution.md).
+  double position_shift_scale = 0.0;
 };
 
 /// Minimises the free run's error over the parameters (Ceres, from the equation-error estimate `start`),
 /// on the first `max_samples` of the grid. Why: the equation-error fit sees the volume balance through
 /// filter windows of tens of ms; a release or an impact shorter than them contributes little to it, and
 /// the dead volume, which sets how fast a small chamber decompresses, is then pinned only to +-20-40 % on a
-/// fast press, leaving twice the noise in its free run. Kept (`improved`) only where the refined free run
-/// is within 2.5 times the pressure noise: a larger error is the model's, not the fit's. `start_std` (the
-/// equation-error stds) scales the search; `with_stds` computes the refined stds (a Jacobian more).
+/// fast press, leaving twice the noise in its free run. `start_std` (the equation-error stds) scales the
+/// search.
 OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const HydraulicModel& model,
                                    const ParameterVector& start, const ParameterVector& start_std,
-                                   double min_pressure, bool with_stds = true, std::size_t max_samples = 20000);
+                                   double min_pressure, const OutputErrorOptions& options = OutputErrorOptions());
 
 }  // namespace die_cushion_ident

@@ -55,8 +55,20 @@ struct SettingsChoice {
   std::optional<TopicDelayEstimate> delays;
   bool delays_applied = false;
   bool valve_from_operation = false;       ///< that fit replaced the configured valve model
+  /// [s] how much the free run moved the position's estimated offset (0 where it was not refined), the
+  /// free run's std of it (at least 0.05 ms: its measured bias over the press classes), and why.
+  double position_delay_shift = 0.0;
+  double position_delay_shift_std = std::numeric_limits<double>::quiet_NaN();
+  std::string position_delay_refinement;
   /// [Pa] the free run's change from the chosen period to half of it: its own resolution error.
   double resolution_error = 0.0;
+  /// The configured model's free run did not converge as the period halved (or moved with its own
+  /// tolerance): the model fails, and no resolution error is claimed (resolution_error NaN).
+  bool resolution_not_converging = false;
+  /// [Pa] the free run's error from the position topic's message rate (where it is slower than the grid;
+  /// NaN otherwise): by Richardson's estimate from the free runs on every second and fourth position message.
+  /// Part of resolution_error (added in quadrature to the grid's).
+  double position_rate_error = std::numeric_limits<double>::quiet_NaN();
   /// [Pa] the free run's numerical error at the chosen period: its difference from a run with a twenty times
   /// tighter tolerance.
   double numerical_error = std::numeric_limits<double>::quiet_NaN();
