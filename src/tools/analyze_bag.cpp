@@ -9,6 +9,7 @@
 #include <sensor_msgs/JointState.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -95,6 +96,8 @@ struct BagPass {
   std::uint64_t without_position = 0;  // JointStates without a position for the cushion
   std::string joint_problem, joint_ambiguity;
   std::string read_error;  // the bag could not be read to the end
+  std::vector<BagStreamReader::Damage> damage;  // parts that failed their checks (the rest was read)
+  std::uint64_t messages_missing = 0;           // listed by the index, not delivered by the chunks
   bool cut_off = false, data_lost = false;
   std::uint64_t bytes_read = 0, file_size = 0;
   std::set<std::string> present;    // input topics seen
@@ -272,6 +275,8 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
     }
   };
   if (!reader->read(on_message, on_connection)) pass.read_error = reader->error();
+  pass.damage = reader->damage();
+  pass.messages_missing = reader->messagesMissing();
   pass.cut_off = reader->cutOff();
   pass.data_lost = reader->dataLost();
   pass.bytes_read = reader->bytesRead();
@@ -385,7 +390,25 @@ int run(int argc, char** argv) {
                        " position messages without a position for the cushion's joint were skipped");
   }
   if (!pass.joint_ambiguity.empty()) warnings.push_back(pass.joint_ambiguity);
-  if (!pass.read_error.empty()) {
+  if (!pass.damage.empty()) {
+    // Damage names where it is, so that the recording (or its copy) can be checked there.
+    std::string where;
+    for (std::size_t i = 0; i < pass.damage.size() && i < 5; ++i) {
+      where += (i ? "; " : "") + pass.damage[i].what + " at byte " + std::to_string(pass.damage[i].position);
+    }
+    if (pass.damage.size() > 5) where += "; and " + std::to_string(pass.damage.size() - 5) + " more";
+    const bool in_messages = std::any_of(pass.damage.begin(), pass.damage.end(),
+                                         [](const BagStreamReader::Damage& d) { return d.in_messages; });
+    std::string lost = "every message was read (the damage lies in the index or the headers)";
+    if (in_messages) {
+      lost = (pass.messages_missing > 0 ? std::to_string(pass.messages_missing) + " messages the index lists"
+                                        : std::string("the messages")) +
+             " were lost in the damaged parts; the reading went on at the next record that holds together";
+    }
+    warnings.push_back("the bag is damaged (" + where + "): " + lost + ", and what was read is analysed");
+    partial = true;
+    log(warnings.back());
+  } else if (!pass.read_error.empty()) {
     if (pass.cut_off && !pass.data_lost) {
       // Every message was read; only the index behind them is gone.
       warnings.push_back("the bag lost its index (" + pass.read_error + "): every message was read from its chunks");

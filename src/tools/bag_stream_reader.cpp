@@ -18,8 +18,8 @@ constexpr char kMagic[] = "#ROSBAG V2.0\n";
 constexpr std::size_t kMagicSize = sizeof(kMagic) - 1;
 // Far beyond any real record (rosbag's chunks are 768 kB by default): a larger length is damage.
 constexpr std::uint32_t kMaxRecord = 512u << 20;
-constexpr std::uint8_t kOpMessageData = 0x02, kOpFileHeader = 0x03, kOpChunk = 0x05, kOpChunkInfo = 0x06,
-                        kOpConnection = 0x07;
+constexpr std::uint8_t kOpMessageData = 0x02, kOpFileHeader = 0x03, kOpIndexData = 0x04, kOpChunk = 0x05,
+                        kOpChunkInfo = 0x06, kOpConnection = 0x07;
 
 std::uint32_t readU32(const std::uint8_t* p) {
   return static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
@@ -199,32 +199,148 @@ bool BagStreamReader::fail(const std::string& why) {
   return false;
 }
 
-bool BagStreamReader::readRecord(std::vector<std::uint8_t>* header, std::vector<std::uint8_t>* data,
-                                 bool* truncated) {
+BagStreamReader::RecordRead BagStreamReader::readRecord(std::vector<std::uint8_t>* header,
+                                                       std::vector<std::uint8_t>* data, bool* truncated,
+                                                       std::string* what) {
   *truncated = false;
   std::uint8_t length[4];
   const auto remaining = [&] { return file_size_ - position_; };
-  if (remaining() < 4) return false;
+  if (remaining() < 4) return RecordRead::kEnd;
   file_.read(reinterpret_cast<char*>(length), 4);
   const std::uint32_t header_length = readU32(length);
-  if (header_length > kMaxRecord) return fail("a record's header length is damaged");
-  // A plausible record that runs past the end of the file is where the file was cut.
-  if (header_length > remaining() - 4 || remaining() - 4 - header_length < 4) {
-    cut_off_ = true;
-    return false;
+  if (header_length > kMaxRecord) {
+    *what = "a record's header length is damaged";
+    return RecordRead::kDamaged;
   }
+  // A plausible record that runs past the end of the file is where the file was cut (unless a chunk
+  // follows: then its length is damaged, which read() finds out).
+  if (header_length > remaining() - 4 || remaining() - 4 - header_length < 4) return RecordRead::kCut;
   header->resize(header_length);
   file_.read(reinterpret_cast<char*>(header->data()), header_length);
   file_.read(reinterpret_cast<char*>(length), 4);
   const std::uint32_t data_length = readU32(length);
-  if (data_length > kMaxRecord) return fail("a record's data length is damaged");
+  if (data_length > kMaxRecord) {
+    *what = "a record's data length is damaged";
+    return RecordRead::kDamaged;
+  }
   const std::uint64_t available = remaining() - 8 - header_length;
   const std::uint32_t wanted = static_cast<std::uint32_t>(std::min<std::uint64_t>(data_length, available));
   data->resize(wanted);
   file_.read(reinterpret_cast<char*>(data->data()), wanted);
-  if (!file_) return fail("the file could not be read");
+  if (!file_) {
+    *what = "the file could not be read";
+    return RecordRead::kDamaged;
+  }
   position_ += 8 + header_length + wanted;
   *truncated = wanted < data_length;
+  return RecordRead::kRecord;
+}
+
+std::uint64_t BagStreamReader::findChunkHeader(std::uint64_t from) {
+  // A chunk record's header holds the field "op=" 0x05 (4 bytes, so its length 4 before it); its header
+  // begins a few fields earlier (rosbag writes compression, op, size).
+  static const std::string kNeedle("\x04\x00\x00\x00op=\x05", 8);
+  constexpr std::size_t kBlock = 1 << 20, kBefore = 64;
+  std::ifstream file(path_, std::ios::binary);
+  std::vector<char> block(kBlock + kBefore + kNeedle.size());
+  for (std::uint64_t start = from; start < file_size_; start += kBlock) {
+    const std::uint64_t first = start >= kBefore ? start - kBefore : 0;
+    file.clear();
+    file.seekg(static_cast<std::streamoff>(first));
+    file.read(block.data(), static_cast<std::streamsize>(block.size()));
+    const std::size_t got = static_cast<std::size_t>(file.gcount());
+    const std::string_view view(block.data(), got);
+    for (std::size_t q = view.find(kNeedle, start - first); q != std::string_view::npos; q = view.find(kNeedle, q + 1)) {
+      for (std::size_t back = 4; back <= std::min<std::size_t>(q, kBefore); ++back) {
+        const std::size_t s = q - back;
+        const auto* bytes = reinterpret_cast<const std::uint8_t*>(view.data());
+        const std::uint32_t header_length = readU32(bytes + s);
+        if (first + s < from || header_length < back || header_length > 256 || s + 4 + header_length > got) continue;
+        Fields fields;
+        if (!parseFields(bytes + s + 4, header_length, &fields) || fields["op"] != std::string(1, '\x05') ||
+            fields["size"].size() != 4) {
+          continue;
+        }
+        return first + s;
+      }
+    }
+  }
+  return 0;
+}
+
+std::size_t BagStreamReader::findRecordInChunk(const std::uint8_t* data, std::size_t size, std::size_t from) const {
+  // A message or connection record's header holds "op=" 0x02 or 0x07 (4 bytes: its length 4 before it), a
+  // field or two after its start (rosbag writes conn, op, time).
+  constexpr std::size_t kBefore = 64;
+  const std::string_view view(reinterpret_cast<const char*>(data), size);
+  static const std::string kOp("\x04\x00\x00\x00op=", 7);
+  for (std::size_t q = view.find(kOp, from); q != std::string_view::npos; q = view.find(kOp, q + 1)) {
+    if (q + 8 > size || (data[q + 7] != kOpMessageData && data[q + 7] != kOpConnection)) continue;
+    for (std::size_t back = 4; back <= std::min(q, kBefore); ++back) {
+      const std::size_t s = q - back;
+      if (s < from || s + 4 > size) continue;
+      const std::uint32_t header_length = readU32(data + s);
+      if (header_length < back || header_length > size - s - 4 || size - s - 4 - header_length < 4) continue;
+      const std::uint32_t data_length = readU32(data + s + 4 + header_length);
+      if (data_length > size - s - 8 - header_length) continue;
+      Fields fields;
+      if (parseFields(data + s + 4, header_length, &fields) && fields["op"].size() == 1 &&
+          static_cast<std::uint8_t>(fields["op"][0]) == data[q + 7]) {
+        return s;
+      }
+    }
+  }
+  return size;
+}
+
+bool BagStreamReader::connectionFromIndex(std::uint32_t conn, const std::function<void(const Connection&)>& on_connection) {
+  if (!index_connections_read_) {
+    index_connections_read_ = true;
+    if (index_position_ == 0 || index_position_ >= file_size_) return false;
+    std::ifstream file(path_, std::ios::binary);
+    file.seekg(static_cast<std::streamoff>(index_position_));
+    std::uint64_t at = index_position_;
+    std::vector<std::uint8_t> header, data;
+    while (at + 8 <= file_size_) {
+      std::uint8_t length[4];
+      file.read(reinterpret_cast<char*>(length), 4);
+      const std::uint32_t h = readU32(length);
+      if (!file || h > kMaxRecord || at + 8 + h > file_size_) break;
+      header.resize(h);
+      file.read(reinterpret_cast<char*>(header.data()), h);
+      file.read(reinterpret_cast<char*>(length), 4);
+      const std::uint32_t d = readU32(length);
+      if (!file || d > kMaxRecord || at + 8 + h + d > file_size_) break;
+      data.resize(d);
+      file.read(reinterpret_cast<char*>(data.data()), d);
+      at += 8 + h + d;
+      Fields fields;
+      if (!parseFields(header.data(), h, &fields) || fields["op"] != std::string(1, static_cast<char>(kOpConnection)) ||
+          fields["conn"].size() != 4) {
+        continue;
+      }
+      const std::uint32_t id = readU32(reinterpret_cast<const std::uint8_t*>(fields["conn"].data()));
+      index_connections_[id] = {fields, std::string(data.begin(), data.end())};
+    }
+  }
+  const auto copy = index_connections_.find(conn);
+  if (copy == index_connections_.end()) return false;
+  const std::string& data = copy->second.second;
+  return addConnection(copy->second.first, reinterpret_cast<const std::uint8_t*>(data.data()), data.size(),
+                       on_connection);
+}
+
+bool BagStreamReader::recover(std::uint64_t at, const std::string& what, std::uint64_t resume_from) {
+  damage_.push_back({at, what, true});
+  chunk_damaged_ = true;
+  const std::uint64_t next = findChunkHeader(resume_from);
+  if (next == 0) {
+    position_ = file_size_;
+    return false;
+  }
+  position_ = next;
+  file_.clear();
+  file_.seekg(static_cast<std::streamoff>(next));
   return true;
 }
 
@@ -232,11 +348,17 @@ bool BagStreamReader::addConnection(const Fields& header, const std::uint8_t* da
                                     const std::function<void(const Connection&)>& on_connection) {
   const auto id = header.find("conn");
   const auto topic = header.find("topic");
-  if (id == header.end() || id->second.size() != 4 || topic == header.end()) return fail("a damaged connection record");
+  if (id == header.end() || id->second.size() != 4 || topic == header.end()) return false;
   const std::uint32_t conn = readU32(reinterpret_cast<const std::uint8_t*>(id->second.data()));
-  if (connections_.count(conn)) return true;  // the index repeats every connection at the end
+  const std::string bytes = topic->second + '\0' + std::string(reinterpret_cast<const char*>(data), size);
+  const auto known = connection_bytes_.find(conn);
+  if (known != connection_bytes_.end()) {
+    // The index repeats every connection at the end: the same bytes, or one copy is damaged.
+    return known->second == bytes;
+  }
   Fields details;
-  if (!parseFields(data, size, &details)) return fail("a damaged connection header");
+  if (!parseFields(data, size, &details)) return false;
+  connection_bytes_[conn] = bytes;
   Connection& c = connections_[conn];
   c.topic = topic->second;
   c.datatype = details["type"];
@@ -247,96 +369,239 @@ bool BagStreamReader::addConnection(const Fields& header, const std::uint8_t* da
 
 bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
                                    const std::function<void(const Message&)>& on_message,
-                                   const std::function<void(const Connection&)>& on_connection) {
-  std::size_t at = 0;
+                                   const std::function<void(const Connection&)>& on_connection,
+                                   std::size_t start, bool cut_off, std::size_t* damaged_at, std::string* what) {
+  std::size_t at = start;
+  // A message is delivered once the record after it holds together: damage that begins in a message's
+  // bytes shows only where it reaches the next record's header, and that message is then dropped with it.
+  Message pending;
+  IndexedMessage pending_index{};
+  const auto deliver = [&] {
+    if (!pending.connection) return;
+    ++messages_;
+    chunk_messages_.push_back(pending_index);
+    on_message(pending);
+    pending.connection = nullptr;
+  };
+  const auto damaged = [&](std::size_t record, const char* why) {
+    if (cut_off) deliver();  // the broken record is the cut, not damage: the one before it is whole
+    *damaged_at = record;
+    *what = why;
+    return false;
+  };
   while (at < size) {
-    if (size - at < 4) return fail("a chunk ends inside a record");
+    const std::size_t record = at;
+    if (size - at < 4) return damaged(record, "a chunk ends inside a record");
     const std::uint32_t header_length = readU32(data + at);
-    if (header_length > size - at - 4) return fail("a record inside a chunk runs past the chunk");
+    if (header_length > size - at - 4) return damaged(record, "a record inside a chunk runs past the chunk");
     const std::uint8_t* header = data + at + 4;
     at += 4 + header_length;
-    if (size - at < 4) return fail("a chunk ends inside a record");
+    if (size - at < 4) return damaged(record, "a chunk ends inside a record");
     const std::uint32_t data_length = readU32(data + at);
-    if (data_length > size - at - 4) return fail("a record inside a chunk runs past the chunk");
+    if (data_length > size - at - 4) return damaged(record, "a record inside a chunk runs past the chunk");
     const std::uint8_t* body = data + at + 4;
     at += 4 + data_length;
     FieldViews views;
     const bool parsed = parseFieldViews(header, header_length, &views);
-    if (!parsed || views["op"].size() != 1) {
+    std::uint8_t op = 0;
+    Fields fields;
+    if (parsed && views["op"].size() == 1) {
+      op = static_cast<std::uint8_t>(views["op"][0]);
+    } else if (!parsed && parseFields(header, header_length, &fields) && fields["op"].size() == 1) {
       // A header with more fields than a message record's: parsed in full, as the other records are.
-      Fields fields;
-      if (parsed || !parseFields(header, header_length, &fields) || fields["op"].size() != 1) {
-        return fail("a damaged record header inside a chunk");
-      }
-      if (static_cast<std::uint8_t>(fields["op"][0]) == kOpConnection &&
-          !addConnection(fields, body, data_length, on_connection)) {
-        return false;
-      }
-      continue;
+      op = static_cast<std::uint8_t>(fields["op"][0]);
+    } else {
+      return damaged(record, "a damaged record header inside a chunk");
     }
-    const std::uint8_t op = static_cast<std::uint8_t>(views["op"][0]);
     if (op == kOpConnection) {
-      Fields fields;
-      parseFields(header, header_length, &fields);
-      if (!addConnection(fields, body, data_length, on_connection)) return false;
+      deliver();
+      if (fields.empty()) parseFields(header, header_length, &fields);
+      if (!addConnection(fields, body, data_length, on_connection)) return damaged(record, "a damaged connection record");
     } else if (op == kOpMessageData) {
       const std::string_view conn = views["conn"], time = views["time"];
-      if (conn.size() != 4 || time.size() != 8) return fail("a damaged message record");
-      const auto c = connections_.find(readU32(reinterpret_cast<const std::uint8_t*>(conn.data())));
-      if (c == connections_.end()) return fail("a message of an unknown connection");
+      if (!parsed || conn.size() != 4 || time.size() != 8) return damaged(record, "a damaged message record");
+      const std::uint32_t id = readU32(reinterpret_cast<const std::uint8_t*>(conn.data()));
+      auto c = connections_.find(id);
+      // Its connection record damaged (in the first chunk): the copy in the index at the end stands in.
+      if (c == connections_.end() && connectionFromIndex(id, on_connection)) c = connections_.find(id);
+      if (c == connections_.end()) return damaged(record, "a message of an unknown connection");
       const auto* t = reinterpret_cast<const std::uint8_t*>(time.data());
-      Message m;
-      m.connection = &c->second;
-      m.time = readU32(t) + 1e-9 * readU32(t + 4);
-      m.data = body;
-      m.size = data_length;
-      ++messages_;
-      on_message(m);
+      deliver();
+      pending.connection = &c->second;
+      pending.time = readU32(t) + 1e-9 * readU32(t + 4);
+      pending.data = body;
+      pending.size = data_length;
+      pending_index = {id, static_cast<std::uint64_t>(readU32(t)) * 1000000000ull + readU32(t + 4),
+                       static_cast<std::uint32_t>(record)};
+    } else {
+      // A chunk holds messages and connections only: another record here is damage (or a length that
+      // ran into the records after the chunk).
+      return damaged(record, "a record that does not belong inside a chunk");
     }
   }
+  deliver();
   return true;
+}
+
+namespace {
+
+std::uint64_t u64Field(const std::string& value) {
+  const auto* b = reinterpret_cast<const std::uint8_t*>(value.data());
+  return readU32(b) | static_cast<std::uint64_t>(readU32(b + 4)) << 32;
+}
+
+}  // namespace
+
+void BagStreamReader::checkIndexData(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at) {
+  const auto conn = header.find("conn");
+  const auto count = header.find("count");
+  if (conn == header.end() || count == header.end() || conn->second.size() != 4 || count->second.size() != 4) {
+    damage_.push_back({at, "a damaged index record after a chunk"});
+    damaged_chunks_.insert(chunk_position_);
+    return;
+  }
+  const std::uint32_t id = readU32(reinterpret_cast<const std::uint8_t*>(conn->second.data()));
+  const std::uint32_t entries = readU32(reinterpret_cast<const std::uint8_t*>(count->second.data()));
+  if (static_cast<std::uint64_t>(entries) * 12 != data.size()) {
+    damage_.push_back({at, "a damaged index record after a chunk (its count does not match its entries)"});
+    damaged_chunks_.insert(chunk_position_);
+    return;
+  }
+  for (std::uint32_t e = 0; e < entries; ++e) {
+    const std::uint8_t* entry = data.data() + 12 * static_cast<std::size_t>(e);
+    const std::uint64_t time = static_cast<std::uint64_t>(readU32(entry)) * 1000000000ull + readU32(entry + 4);
+    const std::uint32_t offset = readU32(entry + 8);
+    const auto found = std::lower_bound(chunk_messages_.begin(), chunk_messages_.end(), offset,
+                                        [](const IndexedMessage& m, std::uint32_t o) { return m.offset < o; });
+    const bool delivered = found != chunk_messages_.end() && found->offset == offset;
+    if (chunk_damaged_) {
+      // Its messages after the damage were lost: counted, the damage itself is already reported.
+      if (!delivered) ++messages_missing_;
+      continue;
+    }
+    if (!delivered || found->conn != id || found->time != time) {
+      damage_.push_back({at, "an index record after a chunk disagrees with the chunk's messages"});
+      damaged_chunks_.insert(chunk_position_);
+      return;
+    }
+  }
+  chunk_counts_[chunk_position_][id] += entries;
+}
+
+void BagStreamReader::checkChunkInfo(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at) {
+  const auto position = header.find("chunk_pos");
+  const auto count = header.find("count");
+  if (position == header.end() || count == header.end() || position->second.size() != 8 || count->second.size() != 4) {
+    damage_.push_back({at, "a damaged chunk info record in the index"});
+    return;
+  }
+  const std::uint64_t chunk = u64Field(position->second);
+  const std::uint32_t connections = readU32(reinterpret_cast<const std::uint8_t*>(count->second.data()));
+  if (static_cast<std::uint64_t>(connections) * 8 != data.size()) {
+    damage_.push_back({at, "a damaged chunk info record in the index (its count does not match its entries)"});
+    return;
+  }
+  if (damaged_chunks_.count(chunk)) return;  // reported where it was found
+  const auto counted = chunk_counts_.find(chunk);
+  if (counted == chunk_counts_.end()) {
+    damage_.push_back({at, "the index lists a chunk that is not where it says (damage in the index or the chunks)"});
+    return;
+  }
+  for (std::uint32_t c = 0; c < connections; ++c) {
+    const std::uint32_t id = readU32(data.data() + 8 * c), messages = readU32(data.data() + 8 * c + 4);
+    const auto found = counted->second.find(id);
+    if (found == counted->second.end() || found->second != messages) {
+      damage_.push_back({at, "a chunk info record disagrees with its chunk's messages"});
+      return;
+    }
+  }
 }
 
 bool BagStreamReader::read(const std::function<void(const Message&)>& on_message,
                            const std::function<void(const Connection&)>& on_connection) {
   std::vector<std::uint8_t> header, data, chunk;
   bool truncated = false;
-  while (readRecord(&header, &data, &truncated)) {
+  for (;;) {
+    const std::uint64_t record_start = position_;
+    std::string what;
+    const RecordRead result = readRecord(&header, &data, &truncated, &what);
+    if (result == RecordRead::kEnd) break;
+    if (result == RecordRead::kCut) {
+      // Where a chunk follows, the length was damaged, not the file cut.
+      if (findChunkHeader(record_start + 1) != 0 && recover(record_start, "a record's length is damaged", record_start + 1)) {
+        continue;
+      }
+      cut_off_ = true;
+      break;
+    }
+    if (result == RecordRead::kDamaged) {
+      if (recover(record_start, what, record_start + 1)) continue;
+      break;
+    }
     Fields fields;
     if (!parseFields(header.data(), header.size(), &fields) || fields["op"].size() != 1) {
-      return fail("a damaged record header");
+      if (recover(record_start, "a damaged record header", record_start + 1)) continue;
+      break;
     }
     const std::uint8_t op = static_cast<std::uint8_t>(fields["op"][0]);
     if (op == kOpFileHeader) {
       const std::string& index = fields["index_pos"];
       const std::string& chunks = fields["chunk_count"];
-      if (index.size() == 8) {
-        const auto* b = reinterpret_cast<const std::uint8_t*>(index.data());
-        index_position_ = readU32(b) | static_cast<std::uint64_t>(readU32(b + 4)) << 32;
-      }
+      if (index.size() == 8) index_position_ = u64Field(index);
       if (chunks.size() == 4) chunk_count_ = readU32(reinterpret_cast<const std::uint8_t*>(chunks.data()));
+      // rosbag pads the file header to 4 kB with spaces: anything else there is damage.
+      if (std::any_of(data.begin(), data.end(), [](std::uint8_t b) { return b != ' '; })) {
+        damage_.push_back({record_start, "the file header's padding is damaged"});
+      }
       continue;
     }
-    if (op == kOpChunkInfo) ++chunk_infos_;
+    if (op == kOpChunkInfo) {
+      ++chunk_infos_;
+      if (!truncated) checkChunkInfo(fields, data, record_start);
+      continue;
+    }
+    if (op == kOpIndexData) {
+      if (!truncated) checkIndexData(fields, data, record_start);
+      continue;
+    }
+    if (op != kOpChunk && truncated) break;  // the index at the end, cut short: every message was read
     if (op == kOpConnection) {
-      if (!addConnection(fields, data.data(), data.size(), on_connection)) return false;
+      if (!addConnection(fields, data.data(), data.size(), on_connection)) {
+        damage_.push_back({record_start, "a damaged connection record (its copies differ)"});
+      }
       continue;
     }
     if (op != kOpChunk) {
-      if (truncated) break;  // the index at the end, cut short: every message was read
-      continue;              // the file header, index data and chunk info say nothing new
+      damage_.push_back({record_start, "a record of an unknown kind"});
+      continue;
     }
     data_lost_ = truncated;
+    chunk_position_ = record_start;
+    chunk_messages_.clear();
+    chunk_damaged_ = false;
+    const std::uint64_t chunk_data = record_start + 8 + header.size();
     const std::string compression = fields["compression"];
     const std::string& size_field = fields["size"];
-    if (size_field.size() != 4) return fail("a damaged chunk header");
-    const std::uint32_t size = readU32(reinterpret_cast<const std::uint8_t*>(size_field.data()));
-    if (size > kMaxRecord) return fail("a damaged chunk size");
+    const std::uint32_t size = size_field.size() == 4 ? readU32(reinterpret_cast<const std::uint8_t*>(size_field.data())) : 0;
+    if (size_field.size() != 4 || size > kMaxRecord || (compression == "none" && !truncated && size != data.size())) {
+      damaged_chunks_.insert(record_start);
+      if (recover(record_start, "a damaged chunk header", record_start + 1)) continue;
+      break;
+    }
+    std::size_t damaged_at = 0;
     if (compression == "none") {
       // A chunk cut off while recording: its complete records are still good, the broken last one is the cut.
-      const bool parsed = parseRecords(data.data(), data.size(), on_message, on_connection);
-      if (!parsed && !truncated) return false;
-      if (truncated) error_.clear();
+      // After damage inside the chunk, the reading resumes at the next record that holds together in it;
+      // the chunk's own length holds (its size agrees), so the records after the chunk are read as they
+      // come, and its index records count what was lost.
+      for (std::size_t start = 0; start < data.size();) {
+        if (parseRecords(data.data(), data.size(), on_message, on_connection, start, truncated, &damaged_at, &what)) break;
+        if (truncated) break;  // the chunk cut off while recording: its last record is the cut
+        damaged_chunks_.insert(record_start);
+        damage_.push_back({chunk_data + damaged_at, what, true});
+        chunk_damaged_ = true;
+        start = findRecordInChunk(data.data(), data.size(), damaged_at + 1);
+      }
     } else {
       if (truncated) break;  // a compressed chunk cut short cannot be expanded
       chunk.resize(size);
@@ -353,12 +618,30 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
       } else {
         return fail("a chunk compressed with '" + compression + "', which this reader does not know");
       }
-      if (status != 0 || produced != size) return fail("a " + compression + " chunk that does not expand");
-      if (!parseRecords(chunk.data(), chunk.size(), on_message, on_connection)) return false;
+      if (status != 0 || produced != size) {
+        damaged_chunks_.insert(record_start);
+        damage_.push_back({record_start, "a " + compression + " chunk that does not expand", true});
+        chunk_damaged_ = true;
+        continue;
+      }
+      if (!parseRecords(chunk.data(), chunk.size(), on_message, on_connection, 0, false, &damaged_at, &what)) {
+        damaged_chunks_.insert(record_start);
+        damage_.push_back({record_start, what + " (in a " + compression + " chunk)", true});
+        chunk_damaged_ = true;
+        continue;
+      }
     }
     if (truncated) break;
   }
-  if (!error_.empty()) return false;
+  if (!damage_.empty()) {
+    if (error_.empty()) {
+      char where[64];
+      std::snprintf(where, sizeof(where), " at byte %llu of %llu", static_cast<unsigned long long>(damage_[0].position),
+                    static_cast<unsigned long long>(file_size_));
+      error_ = damage_[0].what + where;
+    }
+    return false;
+  }
   // Cut off: inside a record, or short of the index the header promised (chunk info records missing).
   cut_off_ = cut_off_ || truncated || position_ < file_size_ || chunk_infos_ < chunk_count_;
   if (!cut_off_) return true;

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,19 @@ class BagStreamReader {
   /// reading the messages; NaN when the bag has no (readable) index. A hint for reserving memory.
   double indexedSpan() const;
 
+  /// A part of the file that failed its checks: where it begins, and what was wrong.
+  struct Damage {
+    std::uint64_t position = 0;  ///< [byte]
+    std::string what;
+    bool in_messages = false;  ///< in a chunk or a record's length (messages after it lost), not in the index
+  };
+  /// Every damaged part found (the reading went on after each, at the next chunk that holds together);
+  /// read() returns false when there is any. Messages of a damaged chunk before the damage are delivered,
+  /// those after it are lost.
+  const std::vector<Damage>& damage() const { return damage_; }
+  /// Messages the index at the end lists but the chunks did not deliver (damaged or lost).
+  std::uint64_t messagesMissing() const { return messages_missing_; }
+
   const std::string& error() const { return error_; }
   /// True when the bag ended inside a record (cut off while recording or copying); dataLost() when that
   /// record was a chunk (messages lost), not the index at the end.
@@ -51,12 +65,32 @@ class BagStreamReader {
 
  private:
   using Fields = std::map<std::string, std::string>;
-  bool readRecord(std::vector<std::uint8_t>* header, std::vector<std::uint8_t>* data, bool* truncated);
+  enum class RecordRead { kRecord, kEnd, kCut, kDamaged };
+  // The next record; kDamaged with `what` set where a length cannot be right.
+  RecordRead readRecord(std::vector<std::uint8_t>* header, std::vector<std::uint8_t>* data, bool* truncated,
+                        std::string* what);
+  // A chunk's records from `start` on; false at the first damaged one, with its offset in `data` and what
+  // was wrong (`cut_off`: the chunk was cut while recording, its broken last record is the cut).
   bool parseRecords(const std::uint8_t* data, std::size_t size, const std::function<void(const Message&)>& on_message,
-                    const std::function<void(const Connection&)>& on_connection);
+                    const std::function<void(const Connection&)>& on_connection, std::size_t start,
+                    bool cut_off, std::size_t* damaged_at, std::string* what);
+  // The offset of the next message or connection record that holds together in a chunk's records, from
+  // `from` on; `size` where there is none.
+  std::size_t findRecordInChunk(const std::uint8_t* data, std::size_t size, std::size_t from) const;
   bool addConnection(const Fields& header, const std::uint8_t* data, std::size_t size,
                      const std::function<void(const Connection&)>& on_connection);
   bool fail(const std::string& why);
+  // Damage at `at`: noted (the first also in error()); the reading resumes at the next chunk header found
+  // from `resume_from` on. False when none is found (the rest of the file is lost).
+  bool recover(std::uint64_t at, const std::string& what, std::uint64_t resume_from);
+  std::uint64_t findChunkHeader(std::uint64_t from);
+  // A connection whose record in the chunks was damaged, from its copy in the index at the end.
+  bool connectionFromIndex(std::uint32_t conn, const std::function<void(const Connection&)>& on_connection);
+  // The index records after each chunk and at the end, checked against what the chunks held.
+  void checkIndexData(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at);
+  void checkChunkInfo(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at);
+  void checkConnectionCopy(std::uint32_t conn, const Fields& header, const std::uint8_t* data, std::size_t size,
+                           std::uint64_t at);
 
   std::string path_;
   std::ifstream file_;
@@ -69,6 +103,24 @@ class BagStreamReader {
   bool data_lost_ = false;
   std::uint64_t index_position_ = 0;  // from the file header: where the index begins (0: none written)
   std::uint32_t chunk_count_ = 0, chunk_infos_ = 0;
+  std::vector<Damage> damage_;
+  std::uint64_t messages_missing_ = 0;
+  // Of the chunk being read (and after it, for its index records): where it began, and each message's
+  // (connection, time in ns, offset in the chunk's records) in file order.
+  struct IndexedMessage {
+    std::uint32_t conn;
+    std::uint64_t time;
+    std::uint32_t offset;
+  };
+  std::uint64_t chunk_position_ = 0;
+  std::vector<IndexedMessage> chunk_messages_;
+  bool chunk_damaged_ = false;
+  std::set<std::uint64_t> damaged_chunks_;
+  bool index_connections_read_ = false;
+  std::map<std::uint32_t, std::pair<Fields, std::string>> index_connections_;  // header fields, data
+  // Per chunk read whole: its position and its messages per connection (for the chunk info records).
+  std::map<std::uint64_t, std::map<std::uint32_t, std::uint32_t>> chunk_counts_;
+  std::map<std::uint32_t, std::string> connection_bytes_;  // header topic + data of each connection's first copy
 };
 
 /// Bounds-checked decoding of the serialised messages analyze_bag reads; false for a damaged message (a
