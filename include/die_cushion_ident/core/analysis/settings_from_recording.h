@@ -56,7 +56,7 @@ struct SettingsChoice {
   bool delays_applied = false;
   bool valve_from_operation = false;       ///< that fit replaced the configured valve model
   /// [s] how much the free run moved the position's estimated offset (0 where it was not refined), the
-  /// free run's std of it (at least 0.05 ms: its measured bias over the press classes), and why.
+  /// free run's std of it (at least 0.1 ms: it came up to 0.19 ms off over the press classes), and why.
   double position_delay_shift = 0.0;
   double position_delay_shift_std = std::numeric_limits<double>::quiet_NaN();
   std::string position_delay_refinement;
