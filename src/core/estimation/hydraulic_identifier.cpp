@@ -1,5 +1,7 @@
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -79,6 +81,12 @@ void HydraulicIdentifier::reset() {
   refreshLinearisationPoint();
 }
 
+namespace {
+// The errors-in-variables correction (I - B)^-1 is applied only while B's spectral radius stays below this:
+// beyond it the correction would amplify the estimate by more than 2 (1 / (1 - 0.5)).
+constexpr double kLargestNoiseCorrection = 0.5;
+}  // namespace
+
 CovarianceMatrix HydraulicIdentifier::noiseCorrection(const CovarianceMatrix& P, const CovarianceMatrix& column_noise,
                                                       std::uint64_t updates) const {
   const int n = model_.parameterCount();
@@ -86,10 +94,15 @@ CovarianceMatrix HydraulicIdentifier::noiseCorrection(const CovarianceMatrix& P,
   const double variance = pressure_noise_.sigma() * pressure_noise_.sigma();
   if (!(row_noise_per_variance_ > 0.0) || !std::isfinite(variance) || updates == 0) return identity;
   const CovarianceMatrix bias = variance * (P * column_noise);
+  if (!bias.allFinite()) return identity;
   // A correction as large as the information itself means the noise is not what the estimator measured
-  // (or the data barely excite the model): then none, rather than an amplified one.
-  if (!bias.allFinite() || bias.lpNorm<Eigen::Infinity>() > 0.5) return identity;
-  return (identity - bias).inverse();
+  // (or the data barely excite the model): then none, rather than an amplified one. Judged on the spectral
+  // radius of B (what (I - B)^-1 amplifies by, 1 / (1 - rho)), not on its largest entry, which a scaled
+  // column can make large or small without changing the amplification.
+  const double radius = Eigen::EigenSolver<CovarianceMatrix>(bias, false).eigenvalues().cwiseAbs().maxCoeff();
+  if (!(radius <= kLargestNoiseCorrection)) return identity;
+  const CovarianceMatrix correction = (identity - bias).inverse();
+  return correction.allFinite() ? correction : identity;
 }
 
 ParameterVector HydraulicIdentifier::physicalParameters() const {
@@ -238,15 +251,20 @@ HydraulicEstimate HydraulicIdentifier::combinedEstimate(const HydraulicIdentifie
   if (other.model_.parameterCount() != n) throw std::invalid_argument("combinedEstimate: different models");
   if (other.rls_->updates() == 0) return estimate();
   if (rls_->updates() == 0) return other.estimate();
-  // Both started from the same prior (theta0, P0): it is in each part's information once.
-  const CovarianceMatrix prior_information =
-      CovarianceMatrix::Identity(n, n) / config_.initial_covariance;
+  // Both started from the same prior (theta0, P0). With forgetting, each update scales the information by
+  // lambda before adding phi phi', so after n updates a part holds lambda^n of the prior: each part's own
+  // share is taken out and the prior put in once, as a run over both would hold it (lambda^(n_a + n_b)).
+  // (lambda = 1: the prior once, as before. Exact while the covariance bound, if on, did not act.)
+  const double lambda = config_.forgetting_factor;
+  const double n_a = static_cast<double>(rls_->updates()), n_b = static_cast<double>(other.rls_->updates());
+  const CovarianceMatrix prior_information = CovarianceMatrix::Identity(n, n) / config_.initial_covariance;
+  const double prior_share = std::pow(lambda, n_a + n_b) - std::pow(lambda, n_a) - std::pow(lambda, n_b);
   const CovarianceMatrix information_a = rls_->covariance().inverse();
   const CovarianceMatrix information_b = other.rls_->covariance().inverse();
-  const CovarianceMatrix information = information_a + information_b - prior_information;
+  const CovarianceMatrix information = information_a + information_b + prior_share * prior_information;
   const ParameterVector information_vector = information_a * rls_->parameters() +
-                                             information_b * other.rls_->parameters() -
-                                             prior_information * rls_->initialParameters();
+                                             information_b * other.rls_->parameters() +
+                                             prior_share * (prior_information * rls_->initialParameters());
   const Eigen::LDLT<CovarianceMatrix> solver(information);
   HydraulicEstimate e;
   e.t = std::max(row_.t, other.row_.t);
@@ -271,10 +289,13 @@ void HydraulicIdentifier::fillParameters(const ParameterVector& theta, const Cov
                                          const CovarianceMatrix& S, const CovarianceMatrix& column_noise,
                                          std::uint64_t updates, HydraulicEstimate* e) const {
   const int n = model_.parameterCount();
-  const ParameterVector c = (noiseCorrection(P, column_noise, updates) * theta).cwiseProduct(scale_);
+  // The corrected coefficients are M theta, M = (I - B)^-1: their covariance is M (P S P) M'.
+  const CovarianceMatrix correction = noiseCorrection(P, column_noise, updates);
+  const ParameterVector c = (correction * theta).cwiseProduct(scale_);
   CovarianceMatrix J;
   const ParameterVector physical = model_.physicalFromCoefficients(c, &J);
-  const CovarianceMatrix coefficient_covariance = scale_.asDiagonal() * (P * S * P) * scale_.asDiagonal();
+  const CovarianceMatrix coefficient_covariance =
+      scale_.asDiagonal() * (correction * (P * S * P) * correction.transpose()) * scale_.asDiagonal();
   const CovarianceMatrix physical_covariance = J * coefficient_covariance * J.transpose();
   for (int i = 0; i < n; ++i) {
     const auto& info = model_.parameterInfos()[i];
