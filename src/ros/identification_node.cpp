@@ -91,8 +91,17 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   updater_.add("input timing", this, &IdentificationNode::diagnoseTiming);
   updater_.add("step test", this, &IdentificationNode::diagnoseStepTest);
   updater_.add("feed-forward", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { feed_forward_->diagnose(s); });
-  diagnostic_timer_ =
-      nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) { updater_.update(); });
+  // diagnostic_updater waits for ROS time to reach its next period: after the clock jumps back (rosbag play
+  // --loop) it would stay silent for a whole loop, right when the restart needs telling. Forced then.
+  diagnostic_timer_ = nh_.createTimer(ros::Duration(0.1), [this](const ros::TimerEvent&) {
+    const ros::Time now = ros::Time::now();
+    if (now < last_diagnostics_) {
+      updater_.force_update();
+    } else {
+      updater_.update();
+    }
+    last_diagnostics_ = now;
+  });
 
   ROS_INFO_STREAM("die_cushion_ident: identifying "
                   << joined(pipeline_->identifier().model().effectNames(), ", ")
@@ -182,7 +191,14 @@ void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
 void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
   const auto result = pipeline_->push(stream, sample);
   applyTopicDelayCorrection();
+  // The newest accepted stamp, reset where the stamps jumped back: the restart's age for the diagnostics.
+  if (result == UniformResampler::PushResult::kRestarted ||
+      (result == UniformResampler::PushResult::kAccepted && !(sample.stamp <= newest_stamp_))) {
+    newest_stamp_ = sample.stamp;
+  }
   if (result == UniformResampler::PushResult::kRestarted) {
+    last_restart_stamp_ = sample.stamp;
+    ++time_base_restarts_;
     ROS_WARN("die_cushion_ident: %s stamp jumped (bag restarted?): identification restarted",
              inputStreamName(stream));
     monitor_->resync();
@@ -559,6 +575,8 @@ void IdentificationNode::diagnoseTiming(diagnostic_updater::DiagnosticStatusWrap
   if (joints_.ambiguous()) timing.joint_ambiguity = joints_.ambiguity();
   timing.delays_configured = config_.topicDelaysSet();
   timing.estimate = monitor_->topicDelayEstimate();
+  timing.time_base_restarts = time_base_restarts_;
+  if (std::isfinite(last_restart_stamp_)) timing.since_restart = newest_stamp_ - last_restart_stamp_;
   fill(status, timingHealth(timing));
 }
 

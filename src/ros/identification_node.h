@@ -112,6 +112,12 @@ class IdentificationNode {
   JointSelector joints_;
   bool ambiguity_reported_ = false;
   double spool_stamp_ = -1e18;
+  // [s] the newest accepted input stamp, and the one at which the stamps last jumped back (NaN: never).
+  double newest_stamp_ = std::numeric_limits<double>::quiet_NaN();
+  double last_restart_stamp_ = std::numeric_limits<double>::quiet_NaN();
+  // Counted here: a delay correction rebuilds the pipeline, and its resampler's count with it.
+  std::uint64_t time_base_restarts_ = 0;
+  ros::Time last_diagnostics_;  // when the diagnostics last ran (a later time earlier: the clock jumped back)
   /// [s] how long all inputs may be silent (against the clock) before every signal counts as stale.
   static constexpr double kInputSilenceTolerance = 0.2;
   std::uint64_t rejected_[kInputStreamCount] = {0, 0, 0};

@@ -193,8 +193,17 @@ HealthReport timingHealth(const TimingState& t) {
   r.add("joint", t.joint_name.empty() ? std::string("(default)") : t.joint_name);
   r.add("velocity derived from position [samples]", t.derived_velocity_samples);
   r.add("latency of the velocity stage [ms]", formatted("%.1f", t.velocity_delay * 1e3));
+  r.add("time base restarts", t.time_base_restarts);
   if (!t.joint_ambiguity.empty()) {
     r.summary(HealthLevel::kWarn, t.joint_ambiguity);
+    return r;
+  }
+  if (t.time_base_restarts > 0 && t.since_restart < kRestartWarnFor) {
+    r.summary(HealthLevel::kWarn,
+              formatted("the stamps jumped back %.1f s ago (rosbag play --loop, or a driver restarted): the "
+                        "identification, the model comparison and the ranking started over from the initial values "
+                        "(%.0f restarts so far)",
+                        t.since_restart, static_cast<double>(t.time_base_restarts)));
     return r;
   }
   if (t.delays_configured && !t.estimate) {

@@ -70,8 +70,14 @@ struct TimingState {
   std::string joint_ambiguity;       ///< "" unless the joint could not be told apart
   bool delays_configured = false;
   std::optional<TopicDelayEstimate> estimate;
+  std::uint64_t time_base_restarts = 0;  ///< the stamps jumped back and the identification restarted
+  double since_restart = 1e18;           ///< [s of stamps] since the last of them
 };
-/// The topics' clock offsets; WARN when they are large (corrected, but the user should fix the stamping).
+/// Stamps that jumped back (rosbag play --loop, a driver restarted) are WARNed about for this long [s of
+/// stamps] after the restart, so that a user watching the diagnostics sees why the estimates started over.
+constexpr double kRestartWarnFor = 60.0;
+/// The topics' clock offsets; WARN when they are large (corrected, but the user should fix the stamping)
+/// and for kRestartWarnFor after the stamps jumped back.
 HealthReport timingHealth(const TimingState& timing);
 
 /// The last step test: t63 and the sampling it allows; WARN when sample_period exceeds 0.1 t63 or the test
