@@ -65,9 +65,10 @@ class HydraulicIdentifier {
   void setValveModel(const ServoValveParameters& valve) { regressor_->setValveModel(valve); }
 
   HydraulicEstimate estimate() const;
-  /// The estimate of one batch fit (forgetting factor 1) on this identifier's data and `other`'s together,
-  /// combined from the two fits' information instead of fitted again: P^-1 and P^-1 theta add (less the
-  /// prior counted twice), and so do the Newey-West score sums and the capacitive noise sums. The rows whose
+  /// The estimate of one fit on this identifier's data and `other`'s together, combined from the two fits'
+  /// information instead of fitted again: P^-1 and P^-1 theta add (each part's own share of the prior,
+  /// lambda^n of it after n updates, taken out and the prior put in once), and so do the Newey-West score
+  /// sums and the capacitive noise sums. The rows whose
   /// windows span the seam between the two parts, and the score lags across it, are in neither (about 1 %
   /// of the rows for 8 cycles split in halves). Both must share the configuration. Valve-shape effects keep each
   /// part's own linearisation (exact at each part's fixed point).
