@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
-#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
 
 using namespace die_cushion_ident;

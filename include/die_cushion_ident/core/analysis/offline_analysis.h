@@ -14,7 +14,7 @@
 #include "die_cushion_ident/core/analysis/settings_from_recording.h"
 #include "die_cushion_ident/core/valve/recorded_sweep.h"
 #include "die_cushion_ident/core/valve/step_response.h"
-#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 
 namespace die_cushion_ident {
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "die_cushion_ident/core/estimation/identification_config.h"
-#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/valve/valve_operation_fit.h"
 
 namespace die_cushion_ident {

@@ -3,14 +3,9 @@
 #include <Eigen/Dense>
 #include <cstdint>
 
+#include "die_cushion_ident/core/model/parameter_vector.h"
+
 namespace die_cushion_ident {
-
-/// Largest parameter vector the estimators handle: base model (3) + every library effect (4) + custom ones.
-constexpr int kMaxParameters = 16;
-
-using ParameterVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxParameters, 1>;
-using CovarianceMatrix =
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxParameters, kMaxParameters>;
 
 /// Recursive least squares with exponential forgetting for  z_k = phi_k^T theta + e_k.
 ///

@@ -6,7 +6,7 @@
 
 #include "die_cushion_ident/core/model/effect.h"
 #include "die_cushion_ident/core/model/hydraulic_signals.h"
-#include "die_cushion_ident/core/estimation/recursive_least_squares.h"
+#include "die_cushion_ident/core/model/parameter_vector.h"
 
 namespace die_cushion_ident {
 

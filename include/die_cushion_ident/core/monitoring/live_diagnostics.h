@@ -8,7 +8,7 @@
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
 #include "die_cushion_ident/core/monitoring/health_report.h"
 #include "die_cushion_ident/core/monitoring/live_model_monitor.h"
-#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"

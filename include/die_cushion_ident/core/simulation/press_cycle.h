@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/analysis/stroke_phase.h"
+#include "die_cushion_ident/core/model/stroke_phase.h"
 
 namespace die_cushion_ident {
 

@@ -1,4 +1,4 @@
-#include "die_cushion_ident/core/signal/topic_delay_estimator.h"
+#include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 
 #include <Eigen/Dense>
 #include <algorithm>

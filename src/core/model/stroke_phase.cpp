@@ -1,4 +1,4 @@
-#include "die_cushion_ident/core/analysis/stroke_phase.h"
+#include "die_cushion_ident/core/model/stroke_phase.h"
 
 namespace die_cushion_ident {
 
