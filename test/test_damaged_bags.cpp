@@ -4,7 +4,6 @@
 // each chunk (each message's time and offset) and at the end (each chunk's position and counts), the
 // connection records' two copies and the file header's padding.
 #include <gtest/gtest.h>
-
 #include <rosbag/bag.h>
 #include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/JointState.h>

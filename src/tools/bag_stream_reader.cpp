@@ -6,9 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <string_view>
 #include <limits>
 #include <stdexcept>
+#include <string_view>
 
 namespace die_cushion_ident {
 
@@ -19,7 +19,7 @@ constexpr std::size_t kMagicSize = sizeof(kMagic) - 1;
 // Far beyond any real record (rosbag's chunks are 768 kB by default): a larger length is damage.
 constexpr std::uint32_t kMaxRecord = 512u << 20;
 constexpr std::uint8_t kOpMessageData = 0x02, kOpFileHeader = 0x03, kOpIndexData = 0x04, kOpChunk = 0x05,
-                        kOpChunkInfo = 0x06, kOpConnection = 0x07;
+                       kOpChunkInfo = 0x06, kOpConnection = 0x07;
 
 std::uint32_t readU32(const std::uint8_t* p) {
   return static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
@@ -40,7 +40,8 @@ bool forEachField(const std::uint8_t* data, std::size_t size, const Field& field
     const void* equals = std::memchr(text, '=', length);
     if (!equals) return false;
     const std::size_t name_length = static_cast<const char*>(equals) - text;
-    if (!field(std::string_view(text, name_length), std::string_view(text + name_length + 1, length - name_length - 1)))
+    if (!field(std::string_view(text, name_length),
+               std::string_view(text + name_length + 1, length - name_length - 1)))
       return false;
     at += length;
   }
@@ -52,6 +53,37 @@ bool parseFields(const std::uint8_t* data, std::size_t size, std::map<std::strin
     (*fields)[std::string(name)] = std::string(value);
     return true;
   });
+}
+
+// Calls record(fields, data) for every record of the index, from `index` [byte] to the end of the file (a
+// damaged length ends the walk); `with_data` false leaves data empty (skipped, not read).
+template <typename Record>
+void forEachIndexRecord(const std::string& path, std::uint64_t index, std::uint64_t file_size, bool with_data,
+                        const Record& record) {
+  std::ifstream file(path, std::ios::binary);
+  file.seekg(static_cast<std::streamoff>(index));
+  std::uint64_t at = index;
+  std::vector<std::uint8_t> header, data;
+  while (at + 8 <= file_size) {
+    std::uint8_t length[4];
+    file.read(reinterpret_cast<char*>(length), 4);
+    const std::uint32_t h = readU32(length);
+    if (!file || h > kMaxRecord || at + 8 + h > file_size) break;
+    header.resize(h);
+    file.read(reinterpret_cast<char*>(header.data()), h);
+    file.read(reinterpret_cast<char*>(length), 4);
+    const std::uint32_t d = readU32(length);
+    if (!file || d > kMaxRecord || at + 8 + h + d > file_size) break;
+    if (with_data) {
+      data.resize(d);
+      file.read(reinterpret_cast<char*>(data.data()), d);
+    } else {
+      file.seekg(d, std::ios::cur);
+    }
+    at += 8 + h + d;
+    std::map<std::string, std::string> fields;
+    if (parseFields(header.data(), h, &fields) && fields["op"].size() == 1) record(fields, data);
+  }
 }
 
 // The same fields without copying them into a map: a message record's header (op, conn, time) is parsed
@@ -135,7 +167,8 @@ BagStreamReader::BagStreamReader(const std::string& path) : path_(path), file_(p
   char magic[kMagicSize] = {};
   file_.read(magic, kMagicSize);
   if (!file_ || std::memcmp(magic, kMagic, kMagicSize) != 0) {
-    throw std::runtime_error("'" + path + "' is not a ROS bag (a version 2.0 bag begins with '#ROSBAG V2.0')");
+    throw std::runtime_error("'" + path +
+                             "' is not a ROS bag (a version 2.0 bag begins with '#ROSBAG V2.0')");
   }
   position_ = kMagicSize;
 }
@@ -157,37 +190,18 @@ double BagStreamReader::indexedSpan() const {
   const std::uint64_t index = readU32(b) | static_cast<std::uint64_t>(readU32(b + 4)) << 32;
   if (index == 0 || index >= file_size_) return kNaN;
   // The index: connection, index data and chunk info records to the end of the file.
-  file.clear();
-  file.seekg(static_cast<std::streamoff>(index));
   double first = kNaN, last = kNaN;
-  std::uint64_t at = index;
-  std::vector<std::uint8_t> record;
-  while (at + 8 <= file_size_) {
-    std::uint8_t length[4];
-    file.read(reinterpret_cast<char*>(length), 4);
-    const std::uint32_t h = readU32(length);
-    if (!file || h > kMaxRecord || at + 8 + h > file_size_) break;
-    record.resize(h);
-    file.read(reinterpret_cast<char*>(record.data()), h);
-    file.read(reinterpret_cast<char*>(length), 4);
-    const std::uint32_t d = readU32(length);
-    if (!file || d > kMaxRecord || at + 8 + h + d > file_size_) break;
-    file.seekg(d, std::ios::cur);
-    at += 8 + h + d;
-    Fields fields;
-    if (!parseFields(record.data(), h, &fields) || fields["op"].size() != 1 ||
-        static_cast<std::uint8_t>(fields["op"][0]) != kOpChunkInfo) {
-      continue;
-    }
+  forEachIndexRecord(path_, index, file_size_, false, [&](Fields& fields, const std::vector<std::uint8_t>&) {
+    if (static_cast<std::uint8_t>(fields["op"][0]) != kOpChunkInfo) return;
     const std::string& start = fields["start_time"];
     const std::string& end = fields["end_time"];
-    if (start.size() != 8 || end.size() != 8) continue;
+    if (start.size() != 8 || end.size() != 8) return;
     const auto* s = reinterpret_cast<const std::uint8_t*>(start.data());
     const auto* e = reinterpret_cast<const std::uint8_t*>(end.data());
     const double t0 = readU32(s) + 1e-9 * readU32(s + 4), t1 = readU32(e) + 1e-9 * readU32(e + 4);
     first = std::isnan(first) ? t0 : std::min(first, t0);
     last = std::isnan(last) ? t1 : std::max(last, t1);
-  }
+  });
   return last - first;
 }
 
@@ -200,8 +214,8 @@ bool BagStreamReader::fail(const std::string& why) {
 }
 
 BagStreamReader::RecordRead BagStreamReader::readRecord(std::vector<std::uint8_t>* header,
-                                                       std::vector<std::uint8_t>* data, bool* truncated,
-                                                       std::string* what) {
+                                                        std::vector<std::uint8_t>* data, bool* truncated,
+                                                        std::string* what) {
   *truncated = false;
   std::uint8_t length[4];
   const auto remaining = [&] { return file_size_ - position_; };
@@ -250,12 +264,14 @@ std::uint64_t BagStreamReader::findChunkHeader(std::uint64_t from) {
     file.read(block.data(), static_cast<std::streamsize>(block.size()));
     const std::size_t got = static_cast<std::size_t>(file.gcount());
     const std::string_view view(block.data(), got);
-    for (std::size_t q = view.find(kNeedle, start - first); q != std::string_view::npos; q = view.find(kNeedle, q + 1)) {
+    for (std::size_t q = view.find(kNeedle, start - first); q != std::string_view::npos;
+         q = view.find(kNeedle, q + 1)) {
       for (std::size_t back = 4; back <= std::min<std::size_t>(q, kBefore); ++back) {
         const std::size_t s = q - back;
         const auto* bytes = reinterpret_cast<const std::uint8_t*>(view.data());
         const std::uint32_t header_length = readU32(bytes + s);
-        if (first + s < from || header_length < back || header_length > 256 || s + 4 + header_length > got) continue;
+        if (first + s < from || header_length < back || header_length > 256 || s + 4 + header_length > got)
+          continue;
         Fields fields;
         if (!parseFields(bytes + s + 4, header_length, &fields) || fields["op"] != std::string(1, '\x05') ||
             fields["size"].size() != 4) {
@@ -268,7 +284,8 @@ std::uint64_t BagStreamReader::findChunkHeader(std::uint64_t from) {
   return 0;
 }
 
-std::size_t BagStreamReader::findRecordInChunk(const std::uint8_t* data, std::size_t size, std::size_t from) const {
+std::size_t BagStreamReader::findRecordInChunk(const std::uint8_t* data, std::size_t size,
+                                               std::size_t from) const {
   // A message or connection record's header holds "op=" 0x02 or 0x07 (4 bytes: its length 4 before it), a
   // field or two after its start (rosbag writes conn, op, time).
   constexpr std::size_t kBefore = 64;
@@ -293,35 +310,17 @@ std::size_t BagStreamReader::findRecordInChunk(const std::uint8_t* data, std::si
   return size;
 }
 
-bool BagStreamReader::connectionFromIndex(std::uint32_t conn, const std::function<void(const Connection&)>& on_connection) {
+bool BagStreamReader::connectionFromIndex(std::uint32_t conn,
+                                          const std::function<void(const Connection&)>& on_connection) {
   if (!index_connections_read_) {
     index_connections_read_ = true;
     if (index_position_ == 0 || index_position_ >= file_size_) return false;
-    std::ifstream file(path_, std::ios::binary);
-    file.seekg(static_cast<std::streamoff>(index_position_));
-    std::uint64_t at = index_position_;
-    std::vector<std::uint8_t> header, data;
-    while (at + 8 <= file_size_) {
-      std::uint8_t length[4];
-      file.read(reinterpret_cast<char*>(length), 4);
-      const std::uint32_t h = readU32(length);
-      if (!file || h > kMaxRecord || at + 8 + h > file_size_) break;
-      header.resize(h);
-      file.read(reinterpret_cast<char*>(header.data()), h);
-      file.read(reinterpret_cast<char*>(length), 4);
-      const std::uint32_t d = readU32(length);
-      if (!file || d > kMaxRecord || at + 8 + h + d > file_size_) break;
-      data.resize(d);
-      file.read(reinterpret_cast<char*>(data.data()), d);
-      at += 8 + h + d;
-      Fields fields;
-      if (!parseFields(header.data(), h, &fields) || fields["op"] != std::string(1, static_cast<char>(kOpConnection)) ||
-          fields["conn"].size() != 4) {
-        continue;
-      }
+    const auto keep = [&](Fields& fields, const std::vector<std::uint8_t>& data) {
+      if (static_cast<std::uint8_t>(fields["op"][0]) != kOpConnection || fields["conn"].size() != 4) return;
       const std::uint32_t id = readU32(reinterpret_cast<const std::uint8_t*>(fields["conn"].data()));
       index_connections_[id] = {fields, std::string(data.begin(), data.end())};
-    }
+    };
+    forEachIndexRecord(path_, index_position_, file_size_, true, keep);
   }
   const auto copy = index_connections_.find(conn);
   if (copy == index_connections_.end()) return false;
@@ -370,7 +369,8 @@ bool BagStreamReader::addConnection(const Fields& header, const std::uint8_t* da
 bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
                                    const std::function<void(const Message&)>& on_message,
                                    const std::function<void(const Connection&)>& on_connection,
-                                   std::size_t start, bool cut_off, std::size_t* damaged_at, std::string* what) {
+                                   std::size_t start, bool cut_off, std::size_t* damaged_at,
+                                   std::string* what) {
   std::size_t at = start;
   // A message is delivered once the record after it holds together: damage that begins in a message's
   // bytes shows only where it reaches the next record's header, and that message is then dropped with it.
@@ -416,7 +416,8 @@ bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
     if (op == kOpConnection) {
       deliver();
       if (fields.empty()) parseFields(header, header_length, &fields);
-      if (!addConnection(fields, body, data_length, on_connection)) return damaged(record, "a damaged connection record");
+      if (!addConnection(fields, body, data_length, on_connection))
+        return damaged(record, "a damaged connection record");
     } else if (op == kOpMessageData) {
       const std::string_view conn = views["conn"], time = views["time"];
       if (!parsed || conn.size() != 4 || time.size() != 8) return damaged(record, "a damaged message record");
@@ -452,10 +453,12 @@ std::uint64_t u64Field(const std::string& value) {
 
 }  // namespace
 
-void BagStreamReader::checkIndexData(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at) {
+void BagStreamReader::checkIndexData(const Fields& header, const std::vector<std::uint8_t>& data,
+                                     std::uint64_t at) {
   const auto conn = header.find("conn");
   const auto count = header.find("count");
-  if (conn == header.end() || count == header.end() || conn->second.size() != 4 || count->second.size() != 4) {
+  if (conn == header.end() || count == header.end() || conn->second.size() != 4 ||
+      count->second.size() != 4) {
     damage_.push_back({at, "a damaged index record after a chunk"});
     damaged_chunks_.insert(chunk_position_);
     return;
@@ -469,10 +472,12 @@ void BagStreamReader::checkIndexData(const Fields& header, const std::vector<std
   }
   for (std::uint32_t e = 0; e < entries; ++e) {
     const std::uint8_t* entry = data.data() + 12 * static_cast<std::size_t>(e);
-    const std::uint64_t time = static_cast<std::uint64_t>(readU32(entry)) * 1000000000ull + readU32(entry + 4);
+    const std::uint64_t time =
+        static_cast<std::uint64_t>(readU32(entry)) * 1000000000ull + readU32(entry + 4);
     const std::uint32_t offset = readU32(entry + 8);
-    const auto found = std::lower_bound(chunk_messages_.begin(), chunk_messages_.end(), offset,
-                                        [](const IndexedMessage& m, std::uint32_t o) { return m.offset < o; });
+    const auto found =
+        std::lower_bound(chunk_messages_.begin(), chunk_messages_.end(), offset,
+                         [](const IndexedMessage& m, std::uint32_t o) { return m.offset < o; });
     const bool delivered = found != chunk_messages_.end() && found->offset == offset;
     if (chunk_damaged_) {
       // Its messages after the damage were lost: counted, the damage itself is already reported.
@@ -488,23 +493,27 @@ void BagStreamReader::checkIndexData(const Fields& header, const std::vector<std
   chunk_counts_[chunk_position_][id] += entries;
 }
 
-void BagStreamReader::checkChunkInfo(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at) {
+void BagStreamReader::checkChunkInfo(const Fields& header, const std::vector<std::uint8_t>& data,
+                                     std::uint64_t at) {
   const auto position = header.find("chunk_pos");
   const auto count = header.find("count");
-  if (position == header.end() || count == header.end() || position->second.size() != 8 || count->second.size() != 4) {
+  if (position == header.end() || count == header.end() || position->second.size() != 8 ||
+      count->second.size() != 4) {
     damage_.push_back({at, "a damaged chunk info record in the index"});
     return;
   }
   const std::uint64_t chunk = u64Field(position->second);
   const std::uint32_t connections = readU32(reinterpret_cast<const std::uint8_t*>(count->second.data()));
   if (static_cast<std::uint64_t>(connections) * 8 != data.size()) {
-    damage_.push_back({at, "a damaged chunk info record in the index (its count does not match its entries)"});
+    damage_.push_back(
+        {at, "a damaged chunk info record in the index (its count does not match its entries)"});
     return;
   }
   if (damaged_chunks_.count(chunk)) return;  // reported where it was found
   const auto counted = chunk_counts_.find(chunk);
   if (counted == chunk_counts_.end()) {
-    damage_.push_back({at, "the index lists a chunk that is not where it says (damage in the index or the chunks)"});
+    damage_.push_back(
+        {at, "the index lists a chunk that is not where it says (damage in the index or the chunks)"});
     return;
   }
   for (std::uint32_t c = 0; c < connections; ++c) {
@@ -528,7 +537,8 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
     if (result == RecordRead::kEnd) break;
     if (result == RecordRead::kCut) {
       // Where a chunk follows, the length was damaged, not the file cut.
-      if (findChunkHeader(record_start + 1) != 0 && recover(record_start, "a record's length is damaged", record_start + 1)) {
+      if (findChunkHeader(record_start + 1) != 0 &&
+          recover(record_start, "a record's length is damaged", record_start + 1)) {
         continue;
       }
       cut_off_ = true;
@@ -582,8 +592,10 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
     const std::uint64_t chunk_data = record_start + 8 + header.size();
     const std::string compression = fields["compression"];
     const std::string& size_field = fields["size"];
-    const std::uint32_t size = size_field.size() == 4 ? readU32(reinterpret_cast<const std::uint8_t*>(size_field.data())) : 0;
-    if (size_field.size() != 4 || size > kMaxRecord || (compression == "none" && !truncated && size != data.size())) {
+    const std::uint32_t size =
+        size_field.size() == 4 ? readU32(reinterpret_cast<const std::uint8_t*>(size_field.data())) : 0;
+    if (size_field.size() != 4 || size > kMaxRecord ||
+        (compression == "none" && !truncated && size != data.size())) {
       damaged_chunks_.insert(record_start);
       if (recover(record_start, "a damaged chunk header", record_start + 1)) continue;
       break;
@@ -595,7 +607,9 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
       // the chunk's own length holds (its size agrees), so the records after the chunk are read as they
       // come, and its index records count what was lost.
       for (std::size_t start = 0; start < data.size();) {
-        if (parseRecords(data.data(), data.size(), on_message, on_connection, start, truncated, &damaged_at, &what)) break;
+        if (parseRecords(data.data(), data.size(), on_message, on_connection, start, truncated, &damaged_at,
+                         &what))
+          break;
         if (truncated) break;  // the chunk cut off while recording: its last record is the cut
         damaged_chunks_.insert(record_start);
         damage_.push_back({chunk_data + damaged_at, what, true});
@@ -610,11 +624,15 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
       if (compression == "bz2") {
         status = BZ2_bzBuffToBuffDecompress(reinterpret_cast<char*>(chunk.data()), &produced,
                                             reinterpret_cast<char*>(data.data()),
-                                            static_cast<unsigned int>(data.size()), 0, 0) == BZ_OK ? 0 : -1;
+                                            static_cast<unsigned int>(data.size()), 0, 0) == BZ_OK
+                     ? 0
+                     : -1;
       } else if (compression == "lz4") {
         status = roslz4_buffToBuffDecompress(reinterpret_cast<char*>(data.data()),
                                              static_cast<unsigned int>(data.size()),
-                                             reinterpret_cast<char*>(chunk.data()), &produced) == ROSLZ4_OK ? 0 : -1;
+                                             reinterpret_cast<char*>(chunk.data()), &produced) == ROSLZ4_OK
+                     ? 0
+                     : -1;
       } else {
         return fail("a chunk compressed with '" + compression + "', which this reader does not know");
       }
@@ -624,7 +642,8 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
         chunk_damaged_ = true;
         continue;
       }
-      if (!parseRecords(chunk.data(), chunk.size(), on_message, on_connection, 0, false, &damaged_at, &what)) {
+      if (!parseRecords(chunk.data(), chunk.size(), on_message, on_connection, 0, false, &damaged_at,
+                        &what)) {
         damaged_chunks_.insert(record_start);
         damage_.push_back({record_start, what + " (in a " + compression + " chunk)", true});
         chunk_damaged_ = true;
@@ -636,7 +655,8 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
   if (!damage_.empty()) {
     if (error_.empty()) {
       char where[64];
-      std::snprintf(where, sizeof(where), " at byte %llu of %llu", static_cast<unsigned long long>(damage_[0].position),
+      std::snprintf(where, sizeof(where), " at byte %llu of %llu",
+                    static_cast<unsigned long long>(damage_[0].position),
                     static_cast<unsigned long long>(file_size_));
       error_ = damage_[0].what + where;
     }
@@ -663,8 +683,9 @@ bool decodeValveSignal(const std::uint8_t* data, std::uint32_t size, double* sta
   return c.header(stamp) && c.f64(voltage) && c.f64(spool);
 }
 
-bool decodeJointState(const std::uint8_t* data, std::uint32_t size, double* stamp, std::vector<std::string>* names,
-                      std::vector<double>* position, std::vector<double>* velocity) {
+bool decodeJointState(const std::uint8_t* data, std::uint32_t size, double* stamp,
+                      std::vector<std::string>* names, std::vector<double>* position,
+                      std::vector<double>* velocity) {
   Cursor c(data, size);
   std::uint32_t count = 0;
   if (!c.header(stamp) || !c.u32(&count) || count > size / 4) return false;

@@ -71,7 +71,8 @@ class BagStreamReader {
                         std::string* what);
   // A chunk's records from `start` on; false at the first damaged one, with its offset in `data` and what
   // was wrong (`cut_off`: the chunk was cut while recording, its broken last record is the cut).
-  bool parseRecords(const std::uint8_t* data, std::size_t size, const std::function<void(const Message&)>& on_message,
+  bool parseRecords(const std::uint8_t* data, std::size_t size,
+                    const std::function<void(const Message&)>& on_message,
                     const std::function<void(const Connection&)>& on_connection, std::size_t start,
                     bool cut_off, std::size_t* damaged_at, std::string* what);
   // The offset of the next message or connection record that holds together in a chunk's records, from
@@ -89,8 +90,8 @@ class BagStreamReader {
   // The index records after each chunk and at the end, checked against what the chunks held.
   void checkIndexData(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at);
   void checkChunkInfo(const Fields& header, const std::vector<std::uint8_t>& data, std::uint64_t at);
-  void checkConnectionCopy(std::uint32_t conn, const Fields& header, const std::uint8_t* data, std::size_t size,
-                           std::uint64_t at);
+  void checkConnectionCopy(std::uint32_t conn, const Fields& header, const std::uint8_t* data,
+                           std::size_t size, std::uint64_t at);
 
   std::string path_;
   std::ifstream file_;
@@ -120,7 +121,8 @@ class BagStreamReader {
   std::map<std::uint32_t, std::pair<Fields, std::string>> index_connections_;  // header fields, data
   // Per chunk read whole: its position and its messages per connection (for the chunk info records).
   std::map<std::uint64_t, std::map<std::uint32_t, std::uint32_t>> chunk_counts_;
-  std::map<std::uint32_t, std::string> connection_bytes_;  // header topic + data of each connection's first copy
+  std::map<std::uint32_t, std::string>
+      connection_bytes_;  // header topic + data of each connection's first copy
 };
 
 /// Bounds-checked decoding of the serialised messages analyze_bag reads; false for a damaged message (a
@@ -129,7 +131,8 @@ bool decodeFluidPressure(const std::uint8_t* data, std::uint32_t size, double* s
 bool decodeValveSignal(const std::uint8_t* data, std::uint32_t size, double* stamp, double* voltage,
                        double* spool);
 /// JointState: stamp, names, positions and velocities (efforts skipped).
-bool decodeJointState(const std::uint8_t* data, std::uint32_t size, double* stamp, std::vector<std::string>* names,
-                      std::vector<double>* position, std::vector<double>* velocity);
+bool decodeJointState(const std::uint8_t* data, std::uint32_t size, double* stamp,
+                      std::vector<std::string>* names, std::vector<double>* position,
+                      std::vector<double>* velocity);
 
 }  // namespace die_cushion_ident

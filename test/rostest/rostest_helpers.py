@@ -1,9 +1,17 @@
 """Shared pieces of the Python rostests: the newest message of a topic, a named parameter's value, and
 waiting in simulated time."""
+import subprocess
 import threading
 import time
 
 import rospy
+
+
+def tool(name):
+    """The path of one of the package's command-line tools (simulate_bag, analyze_bag, ...)."""
+    found = subprocess.run(["catkin_find", "--first-only", "--libexec", "die_cushion_ident", name],
+                           capture_output=True, text=True, check=True)
+    return found.stdout.strip()
 
 
 class Latest:

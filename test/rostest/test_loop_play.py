@@ -16,15 +16,9 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from die_cushion_ident.msg import ParameterEstimate
-from rostest_helpers import Diagnostics, Latest, value
+from rostest_helpers import Diagnostics, Latest, tool, value
 
 NS = "/die_cushion/ident/"
-
-
-def tool(name):
-    found = subprocess.run(["catkin_find", "--first-only", "--libexec", "die_cushion_ident", name],
-                           capture_output=True, text=True, check=True)
-    return found.stdout.strip()
 
 
 class LoopPlay(unittest.TestCase):

@@ -15,16 +15,10 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from die_cushion_ident.msg import ModelComparison
-from rostest_helpers import Diagnostics
+from rostest_helpers import Diagnostics, tool
 
 # The node and, beside it on the same played bag, the nodelet (position_only_bag.test starts both).
 NAMESPACES = ["/die_cushion/ident/", "/die_cushion/ident_nodelet/"]
-
-
-def tool(name):
-    found = subprocess.run(["catkin_find", "--first-only", "--libexec", "die_cushion_ident", name],
-                           capture_output=True, text=True, check=True)
-    return found.stdout.strip()
 
 
 class PositionOnlyBag(unittest.TestCase):
