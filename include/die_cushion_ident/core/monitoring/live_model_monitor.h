@@ -21,8 +21,9 @@ namespace die_cushion_ident {
 
 /// How the live model comparison judges and how often it ranks the effect library.
 struct LiveMonitorSettings {
-  double ranking_window = 120.0;  ///< [s] grid samples kept for the ranking (and the step test's timing)
-  double ranking_period = 30.0;   ///< [s] of grid time between rankings
+  // The node's defaults (~effect_ranking_window, ~effect_ranking_period), so that README, node and core agree.
+  double ranking_window = 30.0;  ///< [s] grid samples kept for the ranking (and the step test's timing)
+  double ranking_period = 10.0;  ///< [s] of grid time between rankings
 };
 
 /// One finished effect ranking of the live window (with the formula search where error is left).
