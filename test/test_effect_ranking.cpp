@@ -4,16 +4,16 @@
 // custom effect with the right formula halves the error.
 #include <gtest/gtest.h>
 
-#include <boost/math/special_functions/beta.hpp>
-
 #include <algorithm>
+#include <boost/math/special_functions/beta.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
 #include "die_cushion_ident/core/analysis/effect_ranking.h"
-#include "simulation_fixtures.h"
+#include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
+#include "simulation_fixtures.h"
 
 namespace die_cushion_ident {
 namespace {
@@ -145,17 +145,20 @@ TEST(EffectRankingResult, FalseAlarmRateOnCleanDataIsAtMostTheSignificance) {
       alarm |= c.verdict == Verdict::kMissing;
       largest_reduction = std::max(largest_reduction, c.error_reduction);
     }
-    if (alarm) std::printf("  false alarm on plant %llu: %s\n", static_cast<unsigned long long>(seed), ranking.conclusion.c_str());
+    if (alarm)
+      std::printf("  false alarm on plant %llu: %s\n", static_cast<unsigned long long>(seed),
+                  ranking.conclusion.c_str());
     alarms += alarm;
   }
   const EffectRankingOptions options;
   const double rate = static_cast<double>(alarms) / plants;
   const double lower = alarms == 0 ? 0.0 : boost::math::ibeta_inv(alarms, plants - alarms + 1, 0.025);
   const double upper = alarms == plants ? 1.0 : boost::math::ibeta_inv(alarms + 1, plants - alarms, 0.975);
-  std::printf("false alarms: %d of %d clean recordings (%.1f %%, 95 %% interval %.1f-%.1f %%), significance %.0f %%; "
-              "largest error reduction of any candidate %.0f %%\n",
-              alarms, plants, 100 * rate, 100 * lower, 100 * upper, 100 * options.significance,
-              100 * largest_reduction);
+  std::printf(
+      "false alarms: %d of %d clean recordings (%.1f %%, 95 %% interval %.1f-%.1f %%), significance %.0f %%; "
+      "largest error reduction of any candidate %.0f %%\n",
+      alarms, plants, 100 * rate, 100 * lower, 100 * upper, 100 * options.significance,
+      100 * largest_reduction);
   EXPECT_LE(rate, options.significance);
 }
 
@@ -166,7 +169,8 @@ TEST(EffectRankingResult, TooFewCyclesMakeEveryVerdictInconclusive) {
   const EffectRankingResult ranking = rankEffects(r.grid, r.strokes, testing::configFor(r.plant, {}));
   for (const auto& c : ranking.candidates) {
     const bool implausible = c.explanation.find("outside its physical range") != std::string::npos;
-    EXPECT_EQ(c.verdict, implausible ? Verdict::kNotNeeded : Verdict::kInconclusive) << c.effect << ": " << c.explanation;
+    EXPECT_EQ(c.verdict, implausible ? Verdict::kNotNeeded : Verdict::kInconclusive)
+        << c.effect << ": " << c.explanation;
   }
   EXPECT_NE(ranking.conclusion.find("Too few complete press cycles"), std::string::npos);
 }
@@ -193,7 +197,8 @@ TEST(ModelAssessment, NamesWhereAMissingLeakageShowsInWords) {
   for (const auto& sentence : a.worst_regions) {
     if (sentence.find(" during ") != std::string::npos) phase_sentence = sentence;
   }
-  EXPECT_NE(phase_sentence.find("over-predicts the pressure during bottom_hold"), std::string::npos) << phase_sentence;
+  EXPECT_NE(phase_sentence.find("over-predicts the pressure during bottom_hold"), std::string::npos)
+      << phase_sentence;
   // 4 strokes, all complete: the recording's last one counts once the cushion is back at the top.
   EXPECT_EQ(r.strokes.cycles, 4);
 }
@@ -241,6 +246,22 @@ namespace {
 // it (18 of about 1 990 here) are in neither; against the real fit on all cycles every value is within 0.3
 // of its std (measured: up to 0.2, the bulk modulus) and every std within 10 % (up to 8 %), for an additive
 // effect and for a valve-shape one (relinearised per fold).
+// Holm's step-down over the candidates: the k-th smallest p-value is compared with alpha / (m - k + 1), and
+// the first that fails stops the rejections (a smaller alpha / m for the first than Bonferroni's at the end,
+// never a later rejection after a kept one).
+TEST(EffectRanking, HolmsStepDownRejectsInOrderAndStopsAtTheFirstKept) {
+  // 0.005 <= 0.05/4, 0.01 <= 0.05/3, then 0.03 > 0.05/2: stops, and 0.04 is kept though 0.04 < 0.05.
+  EXPECT_EQ(holmRejected({0.01, 0.04, 0.03, 0.005}, 0.05), (std::vector<bool>{true, false, false, true}));
+  // Both pass their own thresholds (0.001 <= 0.025, 0.02 <= 0.05).
+  EXPECT_EQ(holmRejected({0.02, 0.001}, 0.05), (std::vector<bool>{true, true}));
+  // Each below alpha, neither below alpha / 2: none (an uncorrected test would reject both).
+  EXPECT_EQ(holmRejected({0.03, 0.03}, 0.05), (std::vector<bool>{false, false}));
+  // One candidate: the plain level; none: nothing; a NaN p-value is never a rejection.
+  EXPECT_EQ(holmRejected({0.049}, 0.05), (std::vector<bool>{true}));
+  EXPECT_TRUE(holmRejected({}, 0.05).empty());
+  EXPECT_EQ(holmRejected({std::nan(""), 0.001}, 0.05), (std::vector<bool>{false, true}));
+}
+
 TEST(EffectRanking, TheFoldsCombinedGiveTheFitOnAllCycles) {
   for (const std::string effect : {"leakage", "valve_overlap"}) {
     const SimulatorConfig plant = testing::randomPlant(71, {effect});
@@ -250,12 +271,13 @@ TEST(EffectRanking, TheFoldsCombinedGiveTheFitOnAllCycles) {
     heldOutErrors(r.grid, r.strokes, config, r.strokes.cycles / 2, false, &combined);
     const HydraulicEstimate fitted = fitOnCycles(r.grid, r.strokes, config, 0, r.strokes.cycles - 1);
     ASSERT_EQ(combined.parameters.size(), fitted.parameters.size());
-    EXPECT_NEAR(static_cast<double>(combined.updates), static_cast<double>(fitted.updates), 0.02 * fitted.updates);
+    EXPECT_NEAR(static_cast<double>(combined.updates), static_cast<double>(fitted.updates),
+                0.02 * fitted.updates);
     for (std::size_t i = 0; i < fitted.parameters.size(); ++i) {
       const auto& a = combined.parameters[i];
       const auto& b = fitted.parameters[i];
-      std::printf("%-14s %-20s combined %.5g +- %.3g, fitted %.5g +- %.3g\n", effect.c_str(), a.name.c_str(), a.value,
-                  a.std, b.value, b.std);
+      std::printf("%-14s %-20s combined %.5g +- %.3g, fitted %.5g +- %.3g\n", effect.c_str(), a.name.c_str(),
+                  a.value, a.std, b.value, b.std);
       EXPECT_NEAR(a.value, b.value, 0.3 * b.std) << effect << ": " << a.name;
       EXPECT_NEAR(a.std, b.std, 0.1 * b.std) << effect << ": " << a.name;
     }

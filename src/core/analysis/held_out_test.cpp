@@ -1,8 +1,7 @@
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 
-#include <boost/math/distributions/students_t.hpp>
-
 #include <algorithm>
+#include <boost/math/distributions/students_t.hpp>
 #include <climits>
 #include <cmath>
 #include <future>
@@ -82,8 +81,9 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
                                              grid.begin() + std::min(fit_end, grid.size()));
       OutputErrorOptions without_stds;
       without_stds.with_stds = false;
-      const OutputErrorFit refined = refineByOutputError(
-          training, model, theta, fits[which]->estimate().standardDeviations(), config.min_pressure, without_stds);
+      const OutputErrorFit refined =
+          refineByOutputError(training, model, theta, fits[which]->estimate().standardDeviations(),
+                              config.min_pressure, without_stds);
       if (refined.improved) theta = refined.theta;
     }
     FreeRunPressure free_run(model, config.min_pressure);
@@ -140,7 +140,8 @@ HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors&
   const double sd = n > 1 ? std::sqrt(std::max(squares - n * mean * mean, 0.0) / (n - 1)) : 0.0;
   result.t_statistic = sd > 0.0 ? mean / (sd / std::sqrt(n)) : (mean < 0 ? -1e9 : 1e9);
   if (n > 1) {
-    // Exact Student quantile (the Cornish-Fisher expansion used before was 1.8 % low at 3 degrees of freedom).
+    // Exact Student quantile (the Cornish-Fisher expansion used before was 1.8 % low at 3 degrees of
+    // freedom).
     const boost::math::students_t_distribution<double> student(n - 1);
     const double critical = boost::math::quantile(student, 1.0 - significance);
     result.significant = result.t_statistic < -critical;
@@ -154,7 +155,12 @@ HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors&
 std::vector<bool> holmRejected(const std::vector<double>& p_values, double significance) {
   std::vector<std::size_t> order(p_values.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p_values[a] < p_values[b]; });
+  // A p-value that could not be computed (NaN) is never a rejection and goes last: sorted among the others
+  // it broke the ordering (std::sort needs a strict weak order) and, put first, stopped every rejection.
+  const auto key = [&](std::size_t i) {
+    return std::isnan(p_values[i]) ? std::numeric_limits<double>::infinity() : p_values[i];
+  };
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key(a) < key(b); });
   std::vector<bool> rejected(p_values.size(), false);
   const std::size_t m = p_values.size();
   for (std::size_t k = 0; k < m; ++k) {
