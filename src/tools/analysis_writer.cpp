@@ -117,10 +117,10 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config, const 
   if (std::isfinite(choice->resolution_error)) {
     out << YAML::Key << "resolution_error" << YAML::Value << choice->resolution_error;
   }
-  if (std::isfinite(choice->position_delay_shift_std)) {
+  if (choice->position_delay_shift && choice->delays) {
     out << YAML::Key << "position_delay_refined_by_free_run" << YAML::Value << YAML::Flow << YAML::BeginMap
-        << YAML::Key << "shift" << YAML::Value << choice->position_delay_shift << YAML::Key << "std"
-        << YAML::Value << choice->position_delay_shift_std << YAML::EndMap;
+        << YAML::Key << "shift" << YAML::Value << *choice->position_delay_shift << YAML::Key << "std"
+        << YAML::Value << choice->delays->resolution[static_cast<int>(InputStream::kPosition)] << YAML::EndMap;
   }
   if (std::isfinite(choice->position_rate_error)) {
     out << YAML::Key << "position_rate_error" << YAML::Value << choice->position_rate_error;

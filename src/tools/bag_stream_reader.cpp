@@ -26,6 +26,12 @@ std::uint32_t readU32(const std::uint8_t* p) {
          static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24;
 }
 
+// A little-endian 8-byte field (index_pos, chunk_pos).
+std::uint64_t u64Field(const std::string& value) {
+  const auto* b = reinterpret_cast<const std::uint8_t*>(value.data());
+  return readU32(b) | static_cast<std::uint64_t>(readU32(b + 4)) << 32;
+}
+
 // Calls field(name, value) for each "len name=value" field of a record header (or of a connection's data),
 // the views pointing into `data`; false when the fields do not fit or field() returns false.
 template <typename Field>
@@ -53,6 +59,33 @@ bool parseFields(const std::uint8_t* data, std::size_t size, std::map<std::strin
     (*fields)[std::string(name)] = std::string(value);
     return true;
   });
+}
+
+// The start of the first record header in bytes[lowest, size) whose "op=" field (4 bytes, its length 4 before
+// it), searched from `search_from` on, holds an op that wanted(op) accepts, whose fields parse, and which
+// accept(start, header_length, fields) admits; `size` where there is none. The header begins a few fields
+// before its op (rosbag writes the fields in name order: compression, op, size; conn, op, time).
+template <typename Wanted, typename Accept>
+std::size_t findRecordHeader(const std::uint8_t* bytes, std::size_t size, std::size_t search_from,
+                             std::size_t lowest, const Wanted& wanted, const Accept& accept) {
+  constexpr std::size_t kBefore = 64;
+  static const std::string kOp("\x04\x00\x00\x00op=", 7);
+  const std::string_view view(reinterpret_cast<const char*>(bytes), size);
+  for (std::size_t q = view.find(kOp, search_from); q != std::string_view::npos; q = view.find(kOp, q + 1)) {
+    if (q + 8 > size || !wanted(bytes[q + 7])) continue;
+    for (std::size_t back = 4; back <= std::min(q, kBefore); ++back) {
+      const std::size_t s = q - back;
+      if (s < lowest) continue;
+      const std::uint32_t header_length = readU32(bytes + s);
+      if (header_length < back || header_length > size - s - 4) continue;
+      std::map<std::string, std::string> fields;
+      if (parseFields(bytes + s + 4, header_length, &fields) && fields["op"].size() == 1 &&
+          static_cast<std::uint8_t>(fields["op"][0]) == bytes[q + 7] && accept(s, header_length, fields)) {
+        return s;
+      }
+    }
+  }
+  return size;
 }
 
 // Calls record(fields, data) for every record of the index, from `index` [byte] to the end of the file (a
@@ -186,8 +219,7 @@ double BagStreamReader::indexedSpan() const {
       !parseFields(buffer.data() + 4, header_length, &header) || header["index_pos"].size() != 8) {
     return kNaN;
   }
-  const auto* b = reinterpret_cast<const std::uint8_t*>(header["index_pos"].data());
-  const std::uint64_t index = readU32(b) | static_cast<std::uint64_t>(readU32(b + 4)) << 32;
+  const std::uint64_t index = u64Field(header["index_pos"]);
   if (index == 0 || index >= file_size_) return kNaN;
   // The index: connection, index data and chunk info records to the end of the file.
   double first = kNaN, last = kNaN;
@@ -205,11 +237,15 @@ double BagStreamReader::indexedSpan() const {
   return last - first;
 }
 
-bool BagStreamReader::fail(const std::string& why) {
+std::string BagStreamReader::atByte(std::uint64_t position) const {
   char where[64];
-  std::snprintf(where, sizeof(where), " at byte %llu of %llu", static_cast<unsigned long long>(position_),
+  std::snprintf(where, sizeof(where), " at byte %llu of %llu", static_cast<unsigned long long>(position),
                 static_cast<unsigned long long>(file_size_));
-  error_ = why + where;
+  return where;
+}
+
+bool BagStreamReader::fail(const std::string& why) {
+  error_ = why + atByte(position_);
   return false;
 }
 
@@ -251,63 +287,35 @@ BagStreamReader::RecordRead BagStreamReader::readRecord(std::vector<std::uint8_t
 }
 
 std::uint64_t BagStreamReader::findChunkHeader(std::uint64_t from) {
-  // A chunk record's header holds the field "op=" 0x05 (4 bytes, so its length 4 before it); its header
-  // begins a few fields earlier (rosbag writes compression, op, size).
-  static const std::string kNeedle("\x04\x00\x00\x00op=\x05", 8);
-  constexpr std::size_t kBlock = 1 << 20, kBefore = 64;
+  constexpr std::size_t kBlock = 1 << 20, kBefore = 64, kOverlap = 8;
   std::ifstream file(path_, std::ios::binary);
-  std::vector<char> block(kBlock + kBefore + kNeedle.size());
+  std::vector<char> block(kBlock + kBefore + kOverlap);
   for (std::uint64_t start = from; start < file_size_; start += kBlock) {
     const std::uint64_t first = start >= kBefore ? start - kBefore : 0;
     file.clear();
     file.seekg(static_cast<std::streamoff>(first));
     file.read(block.data(), static_cast<std::streamsize>(block.size()));
     const std::size_t got = static_cast<std::size_t>(file.gcount());
-    const std::string_view view(block.data(), got);
-    for (std::size_t q = view.find(kNeedle, start - first); q != std::string_view::npos;
-         q = view.find(kNeedle, q + 1)) {
-      for (std::size_t back = 4; back <= std::min<std::size_t>(q, kBefore); ++back) {
-        const std::size_t s = q - back;
-        const auto* bytes = reinterpret_cast<const std::uint8_t*>(view.data());
-        const std::uint32_t header_length = readU32(bytes + s);
-        if (first + s < from || header_length < back || header_length > 256 || s + 4 + header_length > got)
-          continue;
-        Fields fields;
-        if (!parseFields(bytes + s + 4, header_length, &fields) || fields["op"] != std::string(1, '\x05') ||
-            fields["size"].size() != 4) {
-          continue;
-        }
-        return first + s;
-      }
-    }
+    const std::size_t found = findRecordHeader(
+        reinterpret_cast<const std::uint8_t*>(block.data()), got, start - first,
+        from > first ? from - first : 0, [](std::uint8_t op) { return op == kOpChunk; },
+        [](std::size_t, std::uint32_t header_length, std::map<std::string, std::string>& fields) {
+          return header_length <= 256 && fields["size"].size() == 4;
+        });
+    if (found < got) return first + found;
   }
   return 0;
 }
 
 std::size_t BagStreamReader::findRecordInChunk(const std::uint8_t* data, std::size_t size,
                                                std::size_t from) const {
-  // A message or connection record's header holds "op=" 0x02 or 0x07 (4 bytes: its length 4 before it), a
-  // field or two after its start (rosbag writes conn, op, time).
-  constexpr std::size_t kBefore = 64;
-  const std::string_view view(reinterpret_cast<const char*>(data), size);
-  static const std::string kOp("\x04\x00\x00\x00op=", 7);
-  for (std::size_t q = view.find(kOp, from); q != std::string_view::npos; q = view.find(kOp, q + 1)) {
-    if (q + 8 > size || (data[q + 7] != kOpMessageData && data[q + 7] != kOpConnection)) continue;
-    for (std::size_t back = 4; back <= std::min(q, kBefore); ++back) {
-      const std::size_t s = q - back;
-      if (s < from || s + 4 > size) continue;
-      const std::uint32_t header_length = readU32(data + s);
-      if (header_length < back || header_length > size - s - 4 || size - s - 4 - header_length < 4) continue;
-      const std::uint32_t data_length = readU32(data + s + 4 + header_length);
-      if (data_length > size - s - 8 - header_length) continue;
-      Fields fields;
-      if (parseFields(data + s + 4, header_length, &fields) && fields["op"].size() == 1 &&
-          static_cast<std::uint8_t>(fields["op"][0]) == data[q + 7]) {
-        return s;
-      }
-    }
-  }
-  return size;
+  return findRecordHeader(
+      data, size, from, from, [](std::uint8_t op) { return op == kOpMessageData || op == kOpConnection; },
+      [&](std::size_t s, std::uint32_t header_length, const std::map<std::string, std::string>&) {
+        // Its data too must lie within the chunk.
+        if (size - s - 4 - header_length < 4) return false;
+        return readU32(data + s + 4 + header_length) <= size - s - 8 - header_length;
+      });
 }
 
 bool BagStreamReader::connectionFromIndex(std::uint32_t conn,
@@ -327,6 +335,12 @@ bool BagStreamReader::connectionFromIndex(std::uint32_t conn,
   const std::string& data = copy->second.second;
   return addConnection(copy->second.first, reinterpret_cast<const std::uint8_t*>(data.data()), data.size(),
                        on_connection);
+}
+
+void BagStreamReader::chunkDamaged(std::uint64_t at, const std::string& what) {
+  damaged_chunks_.insert(chunk_position_);
+  damage_.push_back({at, what, true});
+  chunk_damaged_ = true;
 }
 
 bool BagStreamReader::recover(std::uint64_t at, const std::string& what, std::uint64_t resume_from) {
@@ -443,15 +457,6 @@ bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
   deliver();
   return true;
 }
-
-namespace {
-
-std::uint64_t u64Field(const std::string& value) {
-  const auto* b = reinterpret_cast<const std::uint8_t*>(value.data());
-  return readU32(b) | static_cast<std::uint64_t>(readU32(b + 4)) << 32;
-}
-
-}  // namespace
 
 void BagStreamReader::checkIndexData(const Fields& header, const std::vector<std::uint8_t>& data,
                                      std::uint64_t at) {
@@ -611,9 +616,7 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
                          &what))
           break;
         if (truncated) break;  // the chunk cut off while recording: its last record is the cut
-        damaged_chunks_.insert(record_start);
-        damage_.push_back({chunk_data + damaged_at, what, true});
-        chunk_damaged_ = true;
+        chunkDamaged(chunk_data + damaged_at, what);
         start = findRecordInChunk(data.data(), data.size(), damaged_at + 1);
       }
     } else {
@@ -637,29 +640,19 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
         return fail("a chunk compressed with '" + compression + "', which this reader does not know");
       }
       if (status != 0 || produced != size) {
-        damaged_chunks_.insert(record_start);
-        damage_.push_back({record_start, "a " + compression + " chunk that does not expand", true});
-        chunk_damaged_ = true;
+        chunkDamaged(record_start, "a " + compression + " chunk that does not expand");
         continue;
       }
       if (!parseRecords(chunk.data(), chunk.size(), on_message, on_connection, 0, false, &damaged_at,
                         &what)) {
-        damaged_chunks_.insert(record_start);
-        damage_.push_back({record_start, what + " (in a " + compression + " chunk)", true});
-        chunk_damaged_ = true;
+        chunkDamaged(record_start, what + " (in a " + compression + " chunk)");
         continue;
       }
     }
     if (truncated) break;
   }
   if (!damage_.empty()) {
-    if (error_.empty()) {
-      char where[64];
-      std::snprintf(where, sizeof(where), " at byte %llu of %llu",
-                    static_cast<unsigned long long>(damage_[0].position),
-                    static_cast<unsigned long long>(file_size_));
-      error_ = damage_[0].what + where;
-    }
+    if (error_.empty()) error_ = damage_[0].what + atByte(damage_[0].position);
     return false;
   }
   // Cut off: inside a record, or short of the index the header promised (chunk info records missing).

@@ -81,6 +81,9 @@ class BagStreamReader {
   bool addConnection(const Fields& header, const std::uint8_t* data, std::size_t size,
                      const std::function<void(const Connection&)>& on_connection);
   bool fail(const std::string& why);
+  std::string atByte(std::uint64_t position) const;  // " at byte N of SIZE"
+  // Damage inside the chunk being read: noted, the chunk's index records then count what was lost.
+  void chunkDamaged(std::uint64_t at, const std::string& what);
   // Damage at `at`: noted (the first also in error()); the reading resumes at the next chunk header found
   // from `resume_from` on. False when none is found (the rest of the file is lost).
   bool recover(std::uint64_t at, const std::string& what, std::uint64_t resume_from);

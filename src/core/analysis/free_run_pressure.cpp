@@ -16,14 +16,14 @@ bool usable(const GridSample& s) {
          std::isfinite(FreeRunPressure::spoolOf(s));
 }
 
-// Catmull-Rom on [a, b] at w with outer points (the secant where one is missing): C1, exact for quadratics.
-double cubic(double before, double a, double b, double after, double w) {
+}  // namespace
+
+double catmullRom(double before, double a, double b, double after, double w) {
   const double secant = b - a;
   const double ta = std::isfinite(before) ? 0.5 * (b - before) : secant;
   const double tb = std::isfinite(after) ? 0.5 * (after - a) : secant;
   return a + w * (ta + w * (3.0 * secant - 2.0 * ta - tb + w * (ta + tb - 2.0 * secant)));
 }
-}  // namespace
 
 FreeRunPressure::FreeRunPressure(const HydraulicModel& model, double min_pressure, double tolerance)
     : model_(model), min_pressure_(min_pressure), tolerance_(tolerance > 0.0 ? tolerance : kDefaultTolerance) {}
@@ -32,7 +32,7 @@ double FreeRunPressure::rate(const Span& span, double w, double p, const Paramet
   const auto channel = [&](auto get) {
     const double before = span.before ? get(*span.before) : std::numeric_limits<double>::quiet_NaN();
     const double after = span.after ? get(*span.after) : std::numeric_limits<double>::quiet_NaN();
-    return cubic(before, get(*span.a), get(*span.b), after, w);
+    return catmullRom(before, get(*span.a), get(*span.b), after, w);
   };
   HydraulicSignals s;
   s.t = span.a->t + w * (span.b->t - span.a->t);

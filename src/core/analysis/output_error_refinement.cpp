@@ -16,9 +16,10 @@ namespace {
 // The step-size control's decisions change discontinuously with the parameters; a tight tolerance keeps
 // that roughness far below the differences the numeric derivatives take.
 constexpr double kTolerance = 1.0;  // [Pa]
-// ... and tried only up to this multiple (to save the time on models that lack an effect): the equation-
-// error fit itself left up to 10 times the noise on fast presses with a valve overlap (a dead volume 30 %
-// off), which the refinement brought to the noise.
+// The refinement is tried only up to this multiple of the pressure noise (to save the time on models that
+// lack an effect; it is kept only up to OutputErrorOptions::kept_up_to_noise): the equation-error fit itself
+// left up to 10 times the noise on fast presses with a valve overlap (a dead volume 30 % off), which the
+// refinement brought to the noise.
 constexpr double kWorthRefining = 15.0;
 // Blocks of the recording whose scores are taken as independent for the stds.
 constexpr std::size_t kBlocks = 8;
@@ -51,14 +52,11 @@ std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std
   const long whole = static_cast<long>(std::floor(offset));
   const double w = offset - static_cast<double>(whole);
   const auto at = [&](long i) { return &grid[static_cast<std::size_t>(std::clamp(i, 0L, static_cast<long>(n) - 1))]; };
-  const auto cubic = [w](double before, double a, double b, double after) {
-    return a + 0.5 * w * (b - before + w * (2.0 * before - 5.0 * a + 4.0 * b - after + w * (3.0 * (a - b) + after - before)));
-  };
   for (std::size_t i = 0; i < n; ++i) {
     const long j = static_cast<long>(i) + whole;
     const GridSample *before = at(j - 1), *a = at(j), *b = at(j + 1), *after = at(j + 2);
-    shifted[i].x = static_cast<float>(cubic(before->x, a->x, b->x, after->x));
-    shifted[i].v = static_cast<float>(cubic(before->v, a->v, b->v, after->v));
+    shifted[i].x = static_cast<float>(catmullRom(before->x, a->x, b->x, after->x, w));
+    shifted[i].v = static_cast<float>(catmullRom(before->v, a->v, b->v, after->v, w));
   }
   return shifted;
 }
@@ -206,9 +204,8 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   // the recording treated as independent (cluster-robust): a free run's residuals stay correlated over a
   // whole press cycle (a shut valve carries an error through the hold), and Bartlett weights over 300 ms
   // left the stds a third of the errors on fast presses. J by central differences at the solution.
-  // The position's shift, where it was an unknown, is one more column.
-  const Eigen::Index columns = k + (shifting ? 1 : 0);
-  Eigen::MatrixXd jacobian(n, columns);
+  // Where the position's shift was an unknown, the stds are those with the shift held at its optimum.
+  Eigen::MatrixXd jacobian(n, k);
   std::vector<double> plus(n), minus(n);
   for (Eigen::Index i = 0; i < k; ++i) {
     const double h = 1e-4 * std::max(std::abs(theta(i)), scale(i) * 1e-3);
@@ -220,33 +217,22 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
     // r = p - p_hat: d p_hat / d theta = -(dr / d theta)
     for (std::size_t s = 0; s < n; ++s) jacobian(s, i) = -(plus[s] - minus[s]) / (2.0 * h);
   }
-  if (shifting) {
-    const double h = 1e-2 * position_shift_scale;
-    freeRunResiduals(positionShifted(grid, n, fit.position_shift + h), n, model, theta, min_pressure, plus.data());
-    freeRunResiduals(positionShifted(grid, n, fit.position_shift - h), n, model, theta, min_pressure, minus.data());
-    for (std::size_t s = 0; s < n; ++s) jacobian(s, k) = -(plus[s] - minus[s]) / (2.0 * h);
-  }
   const Eigen::MatrixXd information = jacobian.transpose() * jacobian;
   const std::size_t block = std::max<std::size_t>(n / kBlocks, 1);
-  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(columns, columns);
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(k, k);
   int blocks = 0;
   for (std::size_t first = 0; first + block <= n; first += block, ++blocks) {
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(columns);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(k);
     for (std::size_t s = first; s < first + block; ++s) g += jacobian.row(s).transpose() * r[s];
     meat += g * g.transpose();
   }
   if (blocks > 1) meat *= static_cast<double>(blocks) / (blocks - 1);
   const Eigen::LDLT<Eigen::MatrixXd> solver(information);
-  const Eigen::MatrixXd bread = solver.solve(Eigen::MatrixXd::Identity(columns, columns));
+  const Eigen::MatrixXd bread = solver.solve(Eigen::MatrixXd::Identity(k, k));
   const Eigen::MatrixXd covariance = bread * meat * bread;
   for (Eigen::Index i = 0; i < k; ++i) {
     const double variance = covariance(i, i);
     fit.std(i) = variance > 0.0 && std::isfinite(variance) ? std::sqrt(variance) : start_std(i);
-  }
-  if (shifting) {
-    const double variance = covariance(k, k);
-    fit.position_shift_std =
-        variance > 0.0 && std::isfinite(variance) ? std::sqrt(variance) : std::numeric_limits<double>::infinity();
   }
   return fit;
 }

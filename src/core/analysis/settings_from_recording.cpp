@@ -157,6 +157,26 @@ double changeBetween(const Level& coarse, const Level& fine, double fine_period)
   return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::quiet_NaN();
 }
 
+// Richardson's estimate of the error left at a step from how the result changed as the step halved to it
+// (`change`) and on the halving before (`earlier_change`): change / (2^q - 1), the order q = log2 of their
+// ratio, held between 1 and 4 (1 where the earlier change is unknown).
+struct Richardson {
+  double order = 1.0;
+  double error = 0.0;
+  // The step at which the error would fall to `allowed`, at the same order, from `step`.
+  double stepFor(double allowed, double step) const { return step * std::pow(allowed / error, 1.0 / order); }
+};
+
+Richardson richardson(double change, double earlier_change) {
+  Richardson r;
+  if (std::isfinite(earlier_change) && change > 0.0) r.order = std::clamp(std::log2(earlier_change / change), 1.0, 4.0);
+  r.error = change / (std::pow(2.0, r.order) - 1.0);
+  return r;
+}
+
+// The message rate [Hz] to record at for a sample interval [s], rounded up to 100 Hz.
+double recordingRate(double interval) { return 100.0 * std::ceil(0.01 / interval); }
+
 // The messages with all but every `factor`-th of one stream dropped.
 Messages thinned(const Messages& messages, InputStream stream, int factor) {
   Messages kept;
@@ -191,14 +211,11 @@ void studyPositionRate(const Messages& messages, const IdentificationConfig& at_
   const double change = changeBetween(half_rate, native, period);
   const double earlier_change = changeBetween(freeRunWithEvery(4), half_rate, period);
   if (!std::isfinite(change)) return;
-  const double order = std::isfinite(earlier_change) && change > 0.0
-                           ? std::clamp(std::log2(earlier_change / change), 1.0, 4.0)
-                           : 1.0;
-  choice.position_rate_error = change / (std::pow(2.0, order) - 1.0);
+  const Richardson estimate = richardson(change, earlier_change);
+  choice.position_rate_error = estimate.error;
   if (!(choice.position_rate_error > allowed_change)) return;
-  const double needed_interval = interval * std::pow(allowed_change / choice.position_rate_error, 1.0 / order);
-  const std::string remedy =
-      formatted("record the position at %.0f Hz or more", 100.0 * std::ceil(0.01 / needed_interval));
+  const std::string remedy = formatted("record the position at %.0f Hz or more",
+                                       recordingRate(estimate.stepFor(allowed_change, interval)));
   choice.resolution_remedy = choice.resolution_remedy.empty() ? remedy : choice.resolution_remedy + "; " + remedy;
   const std::string finding = formatted(
       "resolution-limited: the position topic comes every %.3g ms, and the free run's error from that rate alone "
@@ -214,7 +231,7 @@ void studyPositionRate(const Messages& messages, const IdentificationConfig& at_
 // The offset's refinement is kept up to this multiple of the noise: the survey's free run, over its first
 // ten seconds and on the equation-error fit's start, came to 2.6 times the noise on a clean fast press whose
 // offset was right. A model that lacks an effect leaves more (and the shift is bounded to three of the
-// integral-form estimate's stds, and weighed against it).
+// integral-form estimate's stds).
 constexpr double kDelayKeptUpToNoise = 4.0;
 
 // The free run's offset estimate is uncertain by at least this [s]: its sandwich std (1-5 us) is blind to
@@ -247,14 +264,12 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   options.max_samples = kDelaySamples;
   const OutputErrorFit refined =
       refineByOutputError(grid, model, fit.values(), fit.standardDeviations(), choice.config.min_pressure, options);
-  choice.position_delay_refinement = refined.message;
   if (!refined.improved) return std::nullopt;
   const double shift = refined.position_shift;
   choice.position_delay_shift = shift;
-  choice.position_delay_shift_std = kFreeRunOffsetFloor;
   choice.config.topic_delays[kPosition] += shift;
   choice.delays->delays[kPosition] += shift;
-  choice.delays->resolution[kPosition] = choice.position_delay_shift_std;
+  choice.delays->resolution[kPosition] = kFreeRunOffsetFloor;
   choice.delays->message += formatted("; the position's offset refined by the free run by %+.3f ms (+-%.2f ms)",
                                       1e3 * shift, 1e3 * kFreeRunOffsetFloor);
   if (choice.delays->distinguishable()) choice.delays_applied = true;
@@ -402,7 +417,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   const std::optional<OutputErrorFit> refined = refinePositionDelay(model, fit, levels.back().grid, choice);
   if (refined) {
     Level& finest = levels.back();
-    finest.grid = positionShifted(finest.grid, finest.grid.size(), choice.position_delay_shift);
+    finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice.position_delay_shift);
     finest.strokes = segmentStrokes(finest.grid);
   }
   // A configured model that lacks an effect the press has can fit to nonsense (a negative bulk modulus where
@@ -462,10 +477,8 @@ SettingsChoice SettingsFromRecording::choose() const {
       finer = std::move(coarse);
     }
     const double last_change = changes.back(), earlier_change = changes[changes.size() - 2];
-    const double order = std::isfinite(earlier_change) && last_change > 0.0
-                             ? std::clamp(std::log2(earlier_change / last_change), 1.0, 4.0)
-                             : 1.0;
-    choice.resolution_error = last_change / (std::pow(2.0, order) - 1.0);
+    const Richardson estimate = richardson(last_change, earlier_change);
+    choice.resolution_error = estimate.error;
     // A free run that moves with its own tolerance as much as with the period, or whose change does not
     // fall as the period halves, does not converge: that is the configured model failing (a fast press
     // without its tank pressure ran 51 bar off, 10 bar from its own tolerance), not the grid. No resolution
@@ -478,9 +491,8 @@ SettingsChoice SettingsFromRecording::choose() const {
       choice.resolution_not_converging = true;
     } else if (choice.resolution_error > allowed_change) {
       // The period at which the error would fall to the allowed share, at the same order.
-      const double needed = chosen_period * std::pow(allowed_change / choice.resolution_error, 1.0 / order);
-      choice.resolution_remedy =
-          formatted("record pressure, position and valve at %.0f Hz or more", 100.0 * std::ceil(0.01 / needed));
+      choice.resolution_remedy = formatted("record pressure, position and valve at %.0f Hz or more",
+                                           recordingRate(estimate.stepFor(allowed_change, chosen_period)));
       choice.resolution_limit = formatted(
           "resolution-limited: at the finest sample period the recording supports (%.3g ms; its fastest topic "
           "comes every %.3g ms) the free run's own error is about %.2g bar (pressure noise %.2g bar); ",

@@ -8,6 +8,10 @@
 
 namespace die_cushion_ident {
 
+/// Catmull-Rom between a and b at w in [0, 1], with the outer points before and after (the secant where one
+/// is NaN): C1, exact for quadratics. The free run's interpolation of its inputs between grid samples.
+double catmullRom(double before, double a, double b, double after, double w);
+
 /// The pressure a model predicts on its own: the volume balance
 ///
 ///   dp/dt = f(t, p) = (A v(t) - Q_v(y(t), p) - Q_extra(p, ...)) / C(p, x(t))

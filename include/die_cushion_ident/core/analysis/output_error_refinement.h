@@ -1,6 +1,5 @@
 #pragma once
 
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -22,7 +21,6 @@ struct OutputErrorFit {
   /// [s] how much later the position is read where its shift was an unknown (position_shift_scale > 0):
   /// add it to the position topic's delay.
   double position_shift = 0.0;
-  double position_shift_std = std::numeric_limits<double>::infinity();  ///< [s] (with_stds)
   std::string message;
 };
 

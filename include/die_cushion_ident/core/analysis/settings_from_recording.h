@@ -55,11 +55,9 @@ struct SettingsChoice {
   std::optional<TopicDelayEstimate> delays;
   bool delays_applied = false;
   bool valve_from_operation = false;       ///< that fit replaced the configured valve model
-  /// [s] how much the free run moved the position's estimated offset (0 where it was not refined), the
-  /// free run's std of it (at least 0.1 ms: it came up to 0.19 ms off over the press classes), and why.
-  double position_delay_shift = 0.0;
-  double position_delay_shift_std = std::numeric_limits<double>::quiet_NaN();
-  std::string position_delay_refinement;
+  /// [s] how much the free run moved the position's estimated offset, where it refined it (its std is then
+  /// delays->resolution: 0.1 ms, as far off as it came over the press classes).
+  std::optional<double> position_delay_shift;
   /// [Pa] the free run's change from the chosen period to half of it: its own resolution error.
   double resolution_error = 0.0;
   /// The configured model's free run did not converge as the period halved (or moved with its own
