@@ -46,16 +46,29 @@ void fill(diagnostic_updater::DiagnosticStatusWrapper& status, const HealthRepor
 
 IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
     : nh_(nh), pnh_(pnh), sweep_(SweepLimits()), updater_(nh, pnh, name) {
-  const auto problems = loadParameters(pnh_, &config_, &limits_, &settings_);
+  IdentificationConfig config;
+  const auto problems = loadParameters(pnh_, &config, &limits_, &settings_);
   if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + joined(problems, "\n  "));
   sweep_ = ValveSweep(limits_);
-  sweep_.setCommandHold(config_.valve_command_hold);
+  sweep_.setCommandHold(config.valve_command_hold);
   step_test_ = ValveStepTest(limits_);
   joints_ = JointSelector(settings_.joint_name);
   feed_forward_ = std::make_unique<FeedForwardPublisher>(
       nh_, pnh_, settings_.valve_gain, settings_.feed_forward_max_age, limits_.min_voltage, limits_.max_voltage,
       settings_.feed_forward_slew_rate, settings_.feed_forward_parameter_rate);
-  rebuildPipeline();
+  LiveIdentificationSettings live;
+  live.monitor.ranking_window = settings_.effect_ranking_window;
+  live.monitor.ranking_period = settings_.effect_ranking_period;
+  live.choose_settings = settings_.choose_settings;
+  live.survey_seconds = settings_.survey_seconds;
+  live.configured = configuredKeys(pnh_);
+  live_ = std::make_unique<LiveIdentification>(config, live);
+  live_->setCallbacks(
+      [this](const GridSample& g, const HydraulicIdentifier& identifier, const std::optional<LiveRanking>& ranking) {
+        onGridSample(g, identifier, ranking);
+      },
+      [this](const HydraulicIdentifier& identifier) { onIdentificationStep(identifier); });
+  generation_ = live_->generation();
 
   estimate_pub_ = pnh_.advertise<ParameterEstimate>("estimate", 10);
   comparison_pub_ = pnh_.advertise<ModelComparison>("model_comparison", 10);
@@ -89,6 +102,10 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   updater_.add("valve model", this, &IdentificationNode::diagnoseValve);
   updater_.add("model adequacy", this, &IdentificationNode::diagnoseAdequacy);
   updater_.add("input timing", this, &IdentificationNode::diagnoseTiming);
+  updater_.add("settings", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    fill(s, live_->settingsHealth());
+  });
   updater_.add("step test", this, &IdentificationNode::diagnoseStepTest);
   updater_.add("feed-forward", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { feed_forward_->diagnose(s); });
   // diagnostic_updater waits for ROS time to reach its next period: after the clock jumps back (rosbag play
@@ -104,8 +121,8 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   });
 
   ROS_INFO_STREAM("die_cushion_ident: identifying "
-                  << joined(pipeline_->identifier().model().effectNames(), ", ")
-                  << (config_.effects.empty() && config_.custom_effects.empty() ? "base model" : "") << " on "
+                  << joined(live_->pipeline().identifier().model().effectNames(), ", ")
+                  << (config.effects.empty() && config.custom_effects.empty() ? "base model" : "") << " on "
                   << nh_.resolveName("pressure") << ", " << nh_.resolveName("position") << ", "
                   << nh_.resolveName("valve"));
 }
@@ -125,23 +142,6 @@ bool IdentificationNode::valveExperimentRunning() const {
   std::lock_guard<std::mutex> lock(mutex_);
   // A step test's interlocks are as time-critical as a sweep's: both want the fine spin.
   return sweep_commanding_ || step_test_.running();
-}
-
-void IdentificationNode::rebuildPipeline() {
-  pipeline_ = std::make_unique<IdentificationPipeline>(config_);
-  pipeline_->setGridCallback(
-      [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });
-  pipeline_->setStepCallback(
-      [this](const HydraulicIdentifier& identifier) { onIdentificationStep(identifier); });
-  LiveMonitorSettings monitoring;
-  monitoring.ranking_window = settings_.effect_ranking_window;
-  monitoring.ranking_period = settings_.effect_ranking_period;
-  if (monitor_) {
-    monitor_->restart(config_, pipeline_->identifier().model());
-  } else {
-    monitor_ = std::make_unique<LiveModelMonitor>(config_, pipeline_->identifier().model(), monitoring);
-  }
-  if (feed_forward_) feed_forward_->modelChanged();
 }
 
 // ---- inputs ----
@@ -189,47 +189,49 @@ void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
 }
 
 void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
-  const auto result = pipeline_->push(stream, sample);
-  applyTopicDelayCorrection();
-  // The newest accepted stamp, reset where the stamps jumped back: the restart's age for the diagnostics.
-  if (result == UniformResampler::PushResult::kRestarted ||
-      (result == UniformResampler::PushResult::kAccepted && !(sample.stamp <= newest_stamp_))) {
-    newest_stamp_ = sample.stamp;
+  const auto result = live_->push(stream, sample);
+  for (const LiveEvent& e : live_->takeEvents()) {
+    if (e.level == HealthLevel::kOk) {
+      ROS_INFO("die_cushion_ident: %s", e.text.c_str());
+    } else {
+      ROS_WARN("die_cushion_ident: %s", e.text.c_str());
+    }
   }
-  if (result == UniformResampler::PushResult::kRestarted) {
-    last_restart_stamp_ = sample.stamp;
-    ++time_base_restarts_;
-    ROS_WARN("die_cushion_ident: %s stamp jumped (bag restarted?): identification restarted",
-             inputStreamName(stream));
-    monitor_->resync();
-  } else if (result == UniformResampler::PushResult::kHeld) {
-    // A stamp far off the time base: held until the other topics confirm the jump; counted as wild by
-    // the resampler when they do not.
-  } else if (result != UniformResampler::PushResult::kAccepted) {
-    const int s = static_cast<int>(stream);
-    ++rejected_[s];
-    last_rejection_[s] = pushResultText(result);
-    ROS_WARN_THROTTLE(5.0, "die_cushion_ident: %s message rejected: %s", inputStreamName(stream),
-                      pushResultText(result));
+  // A new pipeline (settings, offsets or model changed): the feed-forward ramps its parameters in again.
+  if (live_->generation() != generation_) {
+    generation_ = live_->generation();
+    feed_forward_->modelChanged();
   }
+  if (result == UniformResampler::PushResult::kHeld || result == UniformResampler::PushResult::kAccepted ||
+      result == UniformResampler::PushResult::kRestarted) {
+    // Held: a stamp far off the time base, until the other topics confirm the jump (counted as wild by the
+    // resampler when they do not).
+    return;
+  }
+  const int s = static_cast<int>(stream);
+  ++rejected_[s];
+  last_rejection_[s] = pushResultText(result);
+  ROS_WARN_THROTTLE(5.0, "die_cushion_ident: %s message rejected: %s", inputStreamName(stream),
+                    pushResultText(result));
 }
 
 // ---- identification and model comparison ----
 
-void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier) {
-  if (auto ranking = monitor_->addSample(g, identifier)) publishRanking(*ranking);
+void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier,
+                                      const std::optional<LiveRanking>& ranking) {
+  if (ranking) publishRanking(*ranking);
   analyzeStepTest(g.t);
   // One experiment on the valve at a time: a sweep and a step test refuse each other, and either pauses the
   // feed-forward (its command would add to the experiment's on the cell controller's adder).
   const std::string experiment = sweep_.running() ? "a valve sweep" : (step_test_.running() ? "a step test" : "");
-  feed_forward_->update(g, identifier.model(), identifier.physicalParameters(), monitor_->estimatorStarted(),
+  feed_forward_->update(g, identifier.model(), identifier.physicalParameters(), live_->monitor().estimatorStarted(),
                         last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr, experiment);
 }
 
 void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identifier) {
   // rviz needs no more than 10 Hz.
   const bool markers =
-      markers_pub_.getNumSubscribers() > 0 && ++steps_since_markers_ * config_.identification_period >= 0.1;
+      markers_pub_.getNumSubscribers() > 0 && ++steps_since_markers_ * live_->config().identification_period >= 0.1;
   const bool estimate = estimate_pub_.getNumSubscribers() > 0;
   const bool comparison = comparison_pub_.getNumSubscribers() > 0;
   if (!markers && !estimate && !comparison) return;  // the estimate costs allocations: only when wanted
@@ -245,41 +247,31 @@ void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identif
     msg.skipped_invalid = e.skipped_invalid;
     estimate_pub_.publish(msg);
   }
+  const LiveModelMonitor& monitor = live_->monitor();
   if (markers) {
     steps_since_markers_ = 0;
     CushionView view;
-    view.position = monitor_->lastSample().x;
-    view.pressure = monitor_->lastSample().p;
-    view.simulation_error = monitor_->simulationErrorRms();
-    view.phase = monitor_->phase();
-    markers_pub_.publish(cushionMarkers(config_.geometry, view, e, frame_id_, stamp));
+    view.position = monitor.lastSample().x;
+    view.pressure = monitor.lastSample().p;
+    view.simulation_error = monitor.simulationErrorRms();
+    view.phase = monitor.phase();
+    markers_pub_.publish(cushionMarkers(live_->config().geometry, view, e, frame_id_, stamp));
   }
   if (comparison) {
-    const GridSample& g = monitor_->lastSample();
+    const GridSample& g = monitor.lastSample();
     const ModelComparison msg =
-        toModelComparisonMsg(g, monitor_->modelledPressure(), monitor_->phase(), monitor_->simulationErrorRms(),
+        toModelComparisonMsg(g, monitor.modelledPressure(), monitor.phase(), monitor.simulationErrorRms(),
                              e.equation_error_rms, ros::Time(std::max(g.t, 0.0)));
     // Only what was computed: while the model cannot run, the adequacy diagnostic says why instead.
     if (isComputed(msg)) comparison_pub_.publish(msg);
   }
 }
 
-void IdentificationNode::applyTopicDelayCorrection() {
-  const auto delays = monitor_->takeDelayCorrection();
-  if (!delays) return;
-  config_.topic_delays = *delays;
-  ROS_WARN("die_cushion_ident: the topics' stamps are offset (position %+.2f ms, valve %+.2f ms against "
-           "pressure, estimated from the data): corrected, identification restarted; set ~topic_delays to "
-           "fix them",
-           config_.topic_delays[1] * 1e3, config_.topic_delays[2] * 1e3);
-  rebuildPipeline();
-}
-
 void IdentificationNode::publishRanking(const LiveRanking& ranking) {
   ROS_DEBUG("die_cushion_ident: effect ranking took %.3f s on its own thread", ranking.seconds);
   const EffectRankingResult& result = ranking.result;
   die_cushion_ident::EffectRanking msg;
-  msg.header.stamp = ros::Time(std::max(monitor_->lastSample().t, 0.0));
+  msg.header.stamp = ros::Time(std::max(live_->monitor().lastSample().t, 0.0));
   msg.cycles = ranking.cycles;
   for (const auto& c : result.candidates) {
     msg.effects.push_back(c.effect);
@@ -352,7 +344,7 @@ void IdentificationNode::onStepTimer(const ros::TimerEvent&) {
 void IdentificationNode::analyzeStepTest(double grid_time) {
   if (!(grid_time >= step_analysis_due_)) return;
   step_analysis_due_ = std::numeric_limits<double>::infinity();
-  const std::vector<GridSample> grid(monitor_->window().begin(), monitor_->window().end());
+  const std::vector<GridSample> grid(live_->monitor().window().begin(), live_->monitor().window().end());
   for (const StepResponse& r : findStepResponses(grid)) {
     if (std::abs(r.start - step_test_.stepTime()) > 0.05) continue;
     last_step_response_ = r;
@@ -369,7 +361,7 @@ void IdentificationNode::analyzeStepTest(double grid_time) {
 
 void IdentificationNode::diagnoseStepTest(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  fill(status, stepTestHealth(last_step_response_, step_status_, step_failed_, config_.resampler.sample_period));
+  fill(status, stepTestHealth(last_step_response_, step_status_, step_failed_, live_->config().resampler.sample_period));
 }
 
 // ---- valve sweep ----
@@ -434,9 +426,7 @@ void IdentificationNode::finishSweep() {
   } else {
     if (fit.success) {
       last_valve_fit_ = fit;
-      config_.valve = fit.parameters;  // an unmeasured spool is predicted with the identified valve
-      config_.valve.max_spool_velocity = std::numeric_limits<double>::infinity();
-      pipeline_->setValveModel(config_.valve);
+      live_->setValveModel(fit.parameters);
       ROS_INFO("die_cushion_ident: valve identified: %.1f Hz, damping %.2f, gain %.4f 1/V, dead time %.2f ms",
                fit.parameters.natural_frequency, fit.parameters.damping, fit.parameters.gain,
                fit.parameters.dead_time * 1e3);
@@ -499,19 +489,13 @@ bool IdentificationNode::abortSweep(AbortSweep::Request&, AbortSweep::Response& 
 
 bool IdentificationNode::setEffects(SetEffects::Request& req, SetEffects::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
-  IdentificationConfig changed = config_;
-  changed.effects = req.effects;
-  changed.custom_effects = req.custom_effects;
-  changed.initial_parameters.clear();
-  const auto problems = changed.validate();
+  const std::vector<std::string> problems = live_->setEffects(req.effects, req.custom_effects);
   if (!problems.empty()) {
     res.success = false;
     res.message = "effects refused: " + joined(problems, "; ");
     return true;
   }
-  config_ = changed;
-  rebuildPipeline();
-  for (const auto& info : pipeline_->identifier().model().parameterInfos())
+  for (const auto& info : live_->pipeline().identifier().model().parameterInfos())
     res.parameters.push_back(info.name);
   res.success = true;
   res.message = "model now: " + joined(res.parameters, ", ") + "; the estimator restarted";
@@ -521,7 +505,7 @@ bool IdentificationNode::setEffects(SetEffects::Request& req, SetEffects::Respon
 
 bool IdentificationNode::reset(Reset::Request&, Reset::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
-  rebuildPipeline();
+  live_->restart();
   res.success = true;
   res.message = "identification restarted from the initial values";
   return true;
@@ -536,47 +520,40 @@ void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapp
   InputState input;
   input.stream = stream;
   input.topic = nh_.resolveName(inputStreamName(stream));
-  input.health = pipeline_->resampler().health(stream);
+  input.health = live_->pipeline().resampler().health(stream);
   input.now = ros::Time::now().toSec();
   input.rejected = rejected_[s];
   input.last_rejection = last_rejection_[s];
   // Wild stamps since the last report: the topic's clock jumped while the others' did not.
   input.new_wild_stamps = input.health.wild_stamps > wild_reported_[s];
   wild_reported_[s] = input.health.wild_stamps;
-  input.all_inputs_silent_for = allInputsSilentFor(pipeline_->resampler(), input.now);
+  input.all_inputs_silent_for = allInputsSilentFor(live_->pipeline().resampler(), input.now);
   input.spool_age = input.now - spool_stamp_;
   fill(status, inputHealth(input));
 }
 
 void IdentificationNode::diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const HydraulicIdentifier& identifier = pipeline_->identifier();
+  const HydraulicIdentifier& identifier = live_->pipeline().identifier();
   fill(status, estimatorHealth(identifier.model(), identifier.estimate()));
 }
 
 void IdentificationNode::diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  fill(status, valveHealth(sweep_, config_.valve, last_valve_fit_));
+  fill(status, valveHealth(sweep_, live_->config().valve, last_valve_fit_));
 }
 
 void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  fill(status, adequacyHealth(*monitor_, pipeline_->identifier().estimate().equation_error_rms,
+  fill(status, adequacyHealth(live_->monitor(), live_->pipeline().identifier().estimate().equation_error_rms,
                               settings_.adequacy_warn_error, settings_.adequacy_error_error));
 }
 
 void IdentificationNode::diagnoseTiming(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  TimingState timing;
-  timing.applied_delays = pipeline_->topicDelays();
+  TimingState timing = live_->timing();
   timing.joint_name = settings_.joint_name;
-  timing.derived_velocity_samples = pipeline_->derivedVelocitySamples();
-  timing.velocity_delay = pipeline_->velocityDelay();
   if (joints_.ambiguous()) timing.joint_ambiguity = joints_.ambiguity();
-  timing.delays_configured = config_.topicDelaysSet();
-  timing.estimate = monitor_->topicDelayEstimate();
-  timing.time_base_restarts = time_base_restarts_;
-  if (std::isfinite(last_restart_stamp_)) timing.since_restart = newest_stamp_ - last_restart_stamp_;
   fill(status, timingHealth(timing));
 }
 

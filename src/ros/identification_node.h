@@ -21,9 +21,8 @@
 #include "die_cushion_ident/StartStepTest.h"
 #include "die_cushion_ident/StartSweep.h"
 #include "die_cushion_ident/ValveSignal.h"
-#include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/monitoring/health_report.h"
-#include "die_cushion_ident/core/monitoring/live_model_monitor.h"
+#include "die_cushion_ident/core/monitoring/live_identification.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/valve/valve_step_test.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
@@ -53,8 +52,8 @@ class IdentificationNode {
   void onPosition(const sensor_msgs::JointState::ConstPtr& msg);
   void onValve(const ValveSignal::ConstPtr& msg);
   void push(InputStream stream, const StreamSample& sample);
-  void rebuildPipeline();
-  void onGridSample(const GridSample& g, const HydraulicIdentifier& identifier);
+  void onGridSample(const GridSample& g, const HydraulicIdentifier& identifier,
+                    const std::optional<LiveRanking>& ranking);
   void onIdentificationStep(const HydraulicIdentifier& identifier);
 
   void onSweepTimer(const ros::TimerEvent&);
@@ -80,19 +79,15 @@ class IdentificationNode {
   void diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseTiming(diagnostic_updater::DiagnosticStatusWrapper& status);
-  /// Applies the clock offsets the monitor estimated (after the current message: the pipeline is rebuilt,
-  /// so not from its own callback).
-  void applyTopicDelayCorrection();
 
   ros::NodeHandle nh_, pnh_;
-  IdentificationConfig config_;
   SweepLimits limits_;
   NodeSettings settings_;
 
   mutable std::mutex mutex_;
-  std::unique_ptr<IdentificationPipeline> pipeline_;
-  // The live model comparison and effect ranking (kept across rebuilds: a running ranking is dropped).
-  std::unique_ptr<LiveModelMonitor> monitor_;
+  // The identification, model comparison, ranking, settings survey and clock offsets, free of ROS.
+  std::unique_ptr<LiveIdentification> live_;
+  std::uint64_t generation_ = 0;  // live_'s pipeline generation the feed-forward has seen
   ValveSweep sweep_;
   ros::Timer sweep_timer_;
   bool sweep_commanding_ = false;  // the sweep timer runs (until the offset has been sent)
@@ -112,11 +107,6 @@ class IdentificationNode {
   JointSelector joints_;
   bool ambiguity_reported_ = false;
   double spool_stamp_ = -1e18;
-  // [s] the newest accepted input stamp, and the one at which the stamps last jumped back (NaN: never).
-  double newest_stamp_ = std::numeric_limits<double>::quiet_NaN();
-  double last_restart_stamp_ = std::numeric_limits<double>::quiet_NaN();
-  // Counted here: a delay correction rebuilds the pipeline, and its resampler's count with it.
-  std::uint64_t time_base_restarts_ = 0;
   ros::Time last_diagnostics_;  // when the diagnostics last ran (a later time earlier: the clock jumped back)
   /// [s] how long all inputs may be silent (against the clock) before every signal counts as stale.
   static constexpr double kInputSilenceTolerance = 0.2;

@@ -64,6 +64,14 @@ void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector
   }
 }
 
+std::set<std::string> configuredKeys(const ros::NodeHandle& pnh) {
+  std::set<std::string> keys;
+  for (const auto& key : numericConfigKeys()) {
+    if (pnh.hasParam(key)) keys.insert(key);
+  }
+  return keys;
+}
+
 std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
                                         SweepLimits* limits, NodeSettings* settings) {
   std::vector<std::string> problems;
@@ -89,6 +97,10 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   readNumber(pnh, "feed_forward_slew_rate", &problems, [&](double v) { settings->feed_forward_slew_rate = v; });
   readNumber(pnh, "feed_forward_parameter_rate", &problems,
              [&](double v) { settings->feed_forward_parameter_rate = v; });
+  readNumber(pnh, "survey_seconds", &problems, [&](double v) { settings->survey_seconds = v; });
+  if (pnh.hasParam("choose_settings") && !pnh.getParam("choose_settings", settings->choose_settings)) {
+    problems.push_back("~choose_settings is invalid: must be true or false");
+  }
   std::string form;
   if (pnh.hasParam("regression_form") &&
       (!pnh.getParam("regression_form", form) || !parseRegressionForm(form, &config->regression_form))) {
@@ -120,6 +132,11 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   if (pnh.hasParam("valve_gain") && !(std::isfinite(settings->valve_gain) && settings->valve_gain != 0.0)) {
     std::ostringstream s;
     s << "~valve_gain = " << settings->valve_gain << " is invalid: allowed finite and non-zero [1/V]";
+    problems.push_back(s.str());
+  }
+  if (!(settings->survey_seconds >= 5.0 && settings->survey_seconds <= 600.0)) {
+    std::ostringstream s;
+    s << "~survey_seconds = " << settings->survey_seconds << " is invalid: allowed [5, 600] s";
     problems.push_back(s.str());
   }
   if (!(settings->effect_ranking_window >= 5.0 && settings->effect_ranking_window <= 3600.0)) {

@@ -3,6 +3,7 @@
 #include <ros/node_handle.h>
 
 #include <limits>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,14 @@ struct NodeSettings {
   double feed_forward_max_age = 0.05;  ///< [s] an older pressure_setpoint is not used
   double feed_forward_slew_rate = 100.0;    ///< [V/s] fastest change of the feed-forward command
   double feed_forward_parameter_rate = 0.5;  ///< [1/s] fastest relative change of a parameter it uses
+  /// Choose the sample period, filters, clock offsets and valve model from the first `survey_seconds` of
+  /// messages (the settings study analyze_bag runs), unless configured.
+  bool choose_settings = true;
+  double survey_seconds = 24.0;  ///< [s]
 };
+
+/// The configuration keys among the private parameters (kept and judged by the settings survey).
+std::set<std::string> configuredKeys(const ros::NodeHandle& pnh);
 
 /// A list of strings: a YAML list, or one string "a,b" / "[a, b]" as given on a command line (commas
 /// inside parentheses stay: a custom effect may hold max(p, 0)). Problems are appended to `problems`.

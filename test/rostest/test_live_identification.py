@@ -56,6 +56,15 @@ class LiveIdentification(unittest.TestCase):
                 status = self.diagnostic(target, name)
                 self.assertEqual(status.level, DiagnosticStatus.OK, "%s %s: %s" % (target.ns, name, status.message))
             self.assertLess(target.comparison.get().simulation_error_rms, 3e5)
+        # The node chose its settings from its first 8 s (the paper's press: the paper's grid, nothing
+        # restarted); the nodelet, with the default 24 s, is still surveying.
+        chosen = self.diagnostic(self.targets[1], "settings")
+        self.assertIn("chosen from the recording: sample_period 2 ms", chosen.message)
+        self.assertEqual(chosen.level, DiagnosticStatus.OK, chosen.message)
+        reasons = {kv.key: kv.value for kv in chosen.values}
+        self.assertIn("why sample_period", reasons)
+        self.assertIn("resolution error [bar]", reasons)
+        self.assertIn("surveying", self.diagnostic(self.targets[0], "settings").message)
         # Each identification's diagnostics carry its own name; the nodelet's not the manager's (two nodelets
         # in one manager must not collide).
         prefixes = self.diagnostics.prefixes()

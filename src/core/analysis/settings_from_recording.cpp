@@ -113,30 +113,44 @@ double shortestDrawing(const Level& level) {
   return shortest;
 }
 
-// The free run of `theta` on the level's grid, and its own numerical error (the same run with a twenty times
-// tighter tolerance).
+// The free run of `theta` on the level's grid.
 void runFree(const HydraulicModel& model, const ParameterVector& theta, double min_pressure, Level* level) {
   const std::vector<GridSample>& grid = level->grid;
-  FreeRunPressure free_run(model, min_pressure), tight(model, min_pressure, FreeRunPressure::kDefaultTolerance / 20.0);
-  double sum = 0.0, difference = 0.0;
+  FreeRunPressure free_run(model, min_pressure);
+  double sum = 0.0;
   std::size_t n = 0;
   level->t.assign(grid.size(), 0.0);
   level->modelled.assign(grid.size(), std::numeric_limits<double>::quiet_NaN());
   for (std::size_t i = 0; i < grid.size(); ++i) {
     const GridSample* next = i + 1 < grid.size() ? &grid[i + 1] : nullptr;
     const double p = free_run.step(grid[i], theta, next);
-    const double q = tight.step(grid[i], theta, next);
     level->t[i] = grid[i].t;
     if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(grid[i].p)) continue;
     level->modelled[i] = p;
     sum += (grid[i].p - p) * (grid[i].p - p);
-    if (std::isfinite(q)) difference += (p - q) * (p - q);
     ++n;
   }
-  if (n > 0) {
-    level->error_rms = std::sqrt(sum / n);
-    level->numerical_error = std::sqrt(difference / n);
+  if (n > 0) level->error_rms = std::sqrt(sum / n);
+}
+
+// The free run's own numerical error on a level already run: its rms difference from the same run with a
+// twenty times tighter tolerance. Only the chosen level's is asked for (the tight run costs more than the
+// run itself: it was a third of the study where every level ran it).
+double numericalError(const HydraulicModel& model, const ParameterVector& theta, double min_pressure, Level* level) {
+  if (!std::isnan(level->numerical_error) || level->modelled.empty()) return level->numerical_error;
+  const std::vector<GridSample>& grid = level->grid;
+  FreeRunPressure tight(model, min_pressure, FreeRunPressure::kDefaultTolerance / 20.0);
+  double difference = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    const double q = tight.step(grid[i], theta, i + 1 < grid.size() ? &grid[i + 1] : nullptr);
+    const double p = level->modelled[i];
+    if (!std::isfinite(p) || !std::isfinite(q)) continue;
+    difference += (p - q) * (p - q);
+    ++n;
   }
+  level->numerical_error = n > 0 ? std::sqrt(difference / n) : std::numeric_limits<double>::quiet_NaN();
+  return level->numerical_error;
 }
 
 // rms difference of two levels' free runs at the samples both have (the coarser grid's times lie on the finer).
@@ -483,7 +497,7 @@ SettingsChoice SettingsFromRecording::choose() const {
     // fall as the period halves, does not converge: that is the configured model failing (a fast press
     // without its tank pressure ran 51 bar off, 10 bar from its own tolerance), not the grid. No resolution
     // error is claimed, or it would excuse the missing effect ("resolution-limited: record at 462600 Hz").
-    const double numerical = level(chosen).numerical_error;
+    const double numerical = numericalError(model, theta, choice.config.min_pressure, &level(chosen));
     const bool converging = !(numerical > kConvergingShare * last_change) &&
                             !(std::isfinite(earlier_change) && earlier_change < kConvergingRatio * last_change);
     if (!converging) {
@@ -504,7 +518,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   } else {
     choice.resolution_error = std::numeric_limits<double>::quiet_NaN();
   }
-  if (studied) choice.numerical_error = level(chosen).numerical_error;
+  if (studied) choice.numerical_error = numericalError(model, theta, choice.config.min_pressure, &level(chosen));
   if (studied && !choice.resolution_not_converging) {
     studyPositionRate(messages_, atPeriod(choice.config, chosen_period, shortest_drawing), model, theta, level(chosen),
                       allowed_change, noise, choice);

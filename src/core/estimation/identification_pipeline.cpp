@@ -54,6 +54,11 @@ void IdentificationPipeline::setValveModel(const ServoValveParameters& valve) {
   spool_model_.setValve(valve);
 }
 
+void IdentificationPipeline::setValveModel(const ServoValveParameters& valve, bool drives_free_run) {
+  setValveModel(valve);
+  spool_model_.setDrivesFreeRun(drives_free_run);
+}
+
 void IdentificationPipeline::consume() {
   for (const GridSample& g : grid_) {
     const bool stepped = identifier_.push(g);

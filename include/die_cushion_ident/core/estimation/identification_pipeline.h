@@ -37,6 +37,8 @@ class IdentificationPipeline {
   /// Replaces the valve model that predicts an unmeasured spool and judges the port side near its kink (e.g.
   /// after a sweep identified it).
   void setValveModel(const ServoValveParameters& valve);
+  /// ... and whether it drives the free run (IdentificationConfig::valve_model_drives_free_run).
+  void setValveModel(const ServoValveParameters& valve, bool drives_free_run);
   /// [s] subtracted from each stream's stamps (pressure, position, valve) from now on.
   void setTopicDelays(const std::array<double, kInputStreamCount>& delays) { delays_ = delays; }
   const std::array<double, kInputStreamCount>& topicDelays() const { return delays_; }

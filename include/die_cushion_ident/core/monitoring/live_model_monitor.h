@@ -24,6 +24,9 @@ struct LiveMonitorSettings {
   // The node's defaults (~effect_ranking_window, ~effect_ranking_period), so that README, node and core agree.
   double ranking_window = 30.0;  ///< [s] grid samples kept for the ranking (and the step test's timing)
   double ranking_period = 10.0;  ///< [s] of grid time between rankings
+  /// Estimate the topics' clock offsets on the first window with strokes (where not configured). Off while
+  /// the owner's settings survey estimates them: one estimate, not two that disagree.
+  bool estimate_delays = true;
 };
 
 /// One finished effect ranking of the live window (with the formula search where error is left).
@@ -82,6 +85,14 @@ class LiveModelMonitor {
   const std::optional<TopicDelayEstimate>& topicDelayEstimate() const { return delay_estimate_; }
   /// Offsets worth correcting, once: the owner applies them and rebuilds the pipeline.
   std::optional<std::array<double, kInputStreamCount>> takeDelayCorrection();
+  /// A new valve model for the rankings from now on (the comparison goes on: the spool it reads is the
+  /// pipeline's).
+  void setValveModel(const ServoValveParameters& valve, bool drives_free_run) {
+    config_.valve = valve;
+    config_.valve_model_drives_free_run = drives_free_run;
+  }
+  /// Switches the offsets' estimate on or off (LiveMonitorSettings::estimate_delays).
+  void setDelayEstimation(bool on) { settings_.estimate_delays = on; }
 
  private:
   struct Job {

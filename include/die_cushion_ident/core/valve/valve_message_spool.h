@@ -20,6 +20,8 @@ class ValveMessageSpool {
   void process(StreamSample* valve);
   /// A new valve model (a sweep identified it) from the next message on.
   void setValve(const ServoValveParameters& valve);
+  /// Whether the model's spool drives the free run (StreamSample::third) from the next message on.
+  void setDrivesFreeRun(bool drives_free_run) { drives_free_run_ = drives_free_run; }
   void reset();
 
  private:
