@@ -96,11 +96,19 @@ void valveTerms(double y, double p, double supply, double* r) {
 class BalanceCost {
  public:
   /// `stride`: samples per integration step (the coarse map on smoothed signals takes every step-th).
-  BalanceCost(const Signals& s, const IdentificationConfig& config, double dt, std::vector<std::size_t> starts,
-              double pressure_noise, double window_seconds = kWindow, std::size_t stride = 1)
-      : s_(s), config_(config), dt_(dt), stride_(std::max<std::size_t>(stride, 1)),
+  BalanceCost(const Signals& s, const IdentificationConfig& config, double dt,
+              std::vector<std::size_t> starts, double pressure_noise, double window_seconds = kWindow,
+              std::size_t stride = 1)
+      : s_(s),
+        config_(config),
+        dt_(dt),
+        stride_(std::max<std::size_t>(stride, 1)),
         window_(std::max<std::size_t>(2, std::lround(window_seconds / dt / stride_)) * stride_),
-        starts_(std::move(starts)), noise_variance_(std::isfinite(pressure_noise) ? pressure_noise * pressure_noise : 0.0) {}
+        starts_(std::move(starts)),
+        noise_variance_(std::isfinite(pressure_noise) ? pressure_noise * pressure_noise : 0.0) {
+    pressure_columns_.reserve(starts_.size());
+    for (std::size_t start : starts_) pressure_columns_.push_back(pressureColumns(start));
+  }
 
   struct Fit {
     double rms = std::numeric_limits<double>::infinity();  // [m^3/s] per row, as a flow over the window
@@ -108,61 +116,168 @@ class BalanceCost {
     double correlation_factor = 1.0;  // 1 + 2 sum of the residuals' autocorrelations (rows in time order)
   };
 
-  // The fit's residual with position and valve channels shifted [samples].
-  Fit operator()(double position_shift, double valve_shift, bool with_correlation = false) const {
+  // The normal equations' sums over the windows (rows in time order where the correlation is wanted).
+  // The capacitive columns are sums of a_k (p_k+1 - p_k): a white pressure noise n enters them as
+  // a_last n_end - a_first n_start (the inner terms cancel to first order), and adds sigma^2 (f f' + l l') to
+  // their normal equations, f and l the columns' a at the window's ends: noise_gram, subtracted in solve()
+  // (errors in variables: unremoved, it flattened the soft chamber's capacitance and pulled its offset by
+  // 0.2-0.5 ms).
+  struct Sums {
     Matrix gram = Matrix::Zero();
-    // The capacitive columns are sums of a_k (p_k+1 - p_k): a white pressure noise n enters them as
-    // a_last n_end - a_first n_start (the inner terms cancel to first order), and adds sigma^2 (f f' + l l') to
-    // their normal equations, f and l the columns' a at the window's ends: subtracted (errors in variables:
-    // unremoved, it flattened the soft chamber's capacitance and pulled its offset by 0.2-0.5 ms).
     Eigen::Matrix3d noise_gram = Eigen::Matrix3d::Zero();
     Vector cross = Vector::Zero();
     double zz = 0.0;
     std::vector<std::pair<double, Vector>> rows;
-    if (with_correlation) rows.reserve(starts_.size());
-    const CylinderGeometry& g = config_.geometry;
-    for (std::size_t start : starts_) {
-      Vector r = Vector::Zero();
-      bool usable = true;
-      const double h = stride_ * dt_;
-      for (std::size_t k = start; k < start + window_ && usable; k += stride_) {
-        const double p0 = s_.p[k], p1 = s_.p[k + stride_];
-        const double x0 = at(s_.x, k, position_shift), x1 = at(s_.x, k + stride_, position_shift);
-        const double y0 = at(s_.y, k, valve_shift), y1 = at(s_.y, k + stride_, valve_shift);
-        if (!std::isfinite(p0 + p1 + x0 + x1 + y0 + y1)) {
-          usable = false;
-          break;
-        }
-        const double dp = p1 - p0, pm = 0.5 * (p0 + p1), xm = 0.5 * (x0 + x1);
-        r(0) += g.piston_area * (g.stroke_length - xm) * dp;
-        r(1) += dp;
-        r(2) += kAtmosphericPressure / ((pm + kAtmosphericPressure) * (pm + kAtmosphericPressure)) * dp;
-        double terms0[2 + kKnotCount], terms1[2 + kKnotCount];
-        valveTerms(y0, p0, g.supply_pressure, terms0);
-        valveTerms(y1, p1, g.supply_pressure, terms1);
-        for (int j = 0; j < 2 + kKnotCount; ++j) r(3 + j) += 0.5 * h * (terms0[j] + terms1[j]);
-        r(kRegressors - 2) += pm * h;
-        r(kRegressors - 1) += h;
-      }
-      if (!usable) continue;
-      const double x_begin = at(s_.x, start, position_shift), x_end = at(s_.x, start + window_, position_shift);
-      for (const auto& [x, p] : {std::pair<double, double>{x_begin, s_.p[start]}, {x_end, s_.p[start + window_]}}) {
-        const Eigen::Vector3d a(g.piston_area * (g.stroke_length - x), 1.0,
-                                kAtmosphericPressure / ((p + kAtmosphericPressure) * (p + kAtmosphericPressure)));
-        noise_gram.noalias() += a * a.transpose();
-      }
-      const double z = g.piston_area * (x_end - x_begin);
+    // One window's row r with its left side z and the capacitive columns' a at its two ends.
+    void add(const Vector& r, double z, const Eigen::Vector3d& a_begin, const Eigen::Vector3d& a_end,
+             bool keep_row) {
+      noise_gram.noalias() += a_begin * a_begin.transpose();
+      noise_gram.noalias() += a_end * a_end.transpose();
       gram.selfadjointView<Eigen::Lower>().rankUpdate(r);
       cross.noalias() += r * z;
       zz += z * z;
-      if (with_correlation) rows.emplace_back(z, r);
+      if (keep_row) rows.emplace_back(z, r);
     }
+  };
+
+  // The fit's residual with position and valve channels shifted [samples].
+  Fit operator()(double position_shift, double valve_shift, bool with_correlation = false) const {
+    Sums sums;
+    if (with_correlation) sums.rows.reserve(starts_.size());
+    for (std::size_t w = 0; w < starts_.size(); ++w) {
+      const PositionPart x = positionPart(starts_[w], position_shift);
+      const ValvePart y = valvePart(starts_[w], valve_shift);
+      if (x.usable && y.usable) sums.add(row(w, x, y), x.z, x.a_begin, x.a_end, with_correlation);
+    }
+    return solve(sums, with_correlation);
+  }
+
+  // The cost at every pair of the two lists of shifts [samples], position major. The regressors separate:
+  // the position's shift moves only the first column and the left side, the valve's only the opening's
+  // columns. Each window is integrated once per position shift and once per valve shift, and the rows
+  // assembled per pair (the coarse map's 625 pairs integrated whole were half of the offsets' time); the
+  // sums are the same as operator()'s, term for term.
+  std::vector<double> costMap(const std::vector<double>& position_shifts,
+                              const std::vector<double>& valve_shifts) const {
+    std::vector<std::vector<PositionPart>> x(position_shifts.size());
+    std::vector<std::vector<ValvePart>> y(valve_shifts.size());
+    for (std::size_t i = 0; i < position_shifts.size(); ++i) {
+      for (std::size_t start : starts_) x[i].push_back(positionPart(start, position_shifts[i]));
+    }
+    for (std::size_t j = 0; j < valve_shifts.size(); ++j) {
+      for (std::size_t start : starts_) y[j].push_back(valvePart(start, valve_shifts[j]));
+    }
+    std::vector<double> costs;
+    costs.reserve(position_shifts.size() * valve_shifts.size());
+    for (std::size_t i = 0; i < position_shifts.size(); ++i) {
+      for (std::size_t j = 0; j < valve_shifts.size(); ++j) {
+        Sums sums;
+        for (std::size_t w = 0; w < starts_.size(); ++w) {
+          if (x[i][w].usable && y[j][w].usable) {
+            sums.add(row(w, x[i][w], y[j][w]), x[i][w].z, x[i][w].a_begin, x[i][w].a_end, false);
+          }
+        }
+        costs.push_back(solve(sums, false).rms);
+      }
+    }
+    return costs;
+  }
+  double cost(double position_shift, double valve_shift) const {
+    return (*this)(position_shift, valve_shift).rms;
+  }
+
+ private:
+  // A window's columns that the position's shift moves: r(0), the left side z and the capacitive columns'
+  // a at its ends; and those the valve's shift moves: the opening's terms r(3..8). The pressure's own
+  // columns (r(1), r(2), leakage, constant) move with neither.
+  struct PositionPart {
+    bool usable = false;
+    double r0 = 0.0, z = 0.0;
+    Eigen::Vector3d a_begin, a_end;
+  };
+  struct ValvePart {
+    bool usable = false;
+    double terms[2 + kKnotCount] = {};
+  };
+
+  PositionPart positionPart(std::size_t start, double shift) const {
+    PositionPart part;
+    const CylinderGeometry& g = config_.geometry;
+    double x0 = at(s_.x, start, shift);
+    for (std::size_t k = start; k < start + window_; k += stride_) {
+      const double p0 = s_.p[k], p1 = s_.p[k + stride_];
+      const double x1 = at(s_.x, k + stride_, shift);
+      if (!std::isfinite(p0 + p1 + x0 + x1)) return part;
+      part.r0 += g.piston_area * (g.stroke_length - 0.5 * (x0 + x1)) * (p1 - p0);
+      x0 = x1;
+    }
+    const double x_begin = at(s_.x, start, shift), x_end = at(s_.x, start + window_, shift);
+    const auto a = [&](double x, double p) {
+      return Eigen::Vector3d(
+          g.piston_area * (g.stroke_length - x), 1.0,
+          kAtmosphericPressure / ((p + kAtmosphericPressure) * (p + kAtmosphericPressure)));
+    };
+    part.a_begin = a(x_begin, s_.p[start]);
+    part.a_end = a(x_end, s_.p[start + window_]);
+    part.z = g.piston_area * (x_end - x_begin);
+    part.usable = true;
+    return part;
+  }
+
+  ValvePart valvePart(std::size_t start, double shift) const {
+    ValvePart part;
+    const double h = stride_ * dt_;
+    const double supply = config_.geometry.supply_pressure;
+    // Each step's end is the next step's start: its valve terms are carried over, not computed twice.
+    double p0 = s_.p[start], y0 = at(s_.y, start, shift);
+    double terms0[2 + kKnotCount], terms1[2 + kKnotCount];
+    valveTerms(y0, p0, supply, terms0);
+    for (std::size_t k = start; k < start + window_; k += stride_) {
+      const double p1 = s_.p[k + stride_];
+      const double y1 = at(s_.y, k + stride_, shift);
+      if (!std::isfinite(p0 + p1 + y0 + y1)) return part;
+      valveTerms(y1, p1, supply, terms1);
+      for (int j = 0; j < 2 + kKnotCount; ++j) part.terms[j] += 0.5 * h * (terms0[j] + terms1[j]);
+      p0 = p1;
+      y0 = y1;
+      std::copy(terms1, terms1 + 2 + kKnotCount, terms0);
+    }
+    part.usable = true;
+    return part;
+  }
+
+  // The pressure's own columns of the window starting at `start` (no shift moves them).
+  Vector pressureColumns(std::size_t start) const {
+    Vector r = Vector::Zero();
+    const double h = stride_ * dt_;
+    for (std::size_t k = start; k < start + window_; k += stride_) {
+      const double p0 = s_.p[k], p1 = s_.p[k + stride_];
+      const double dp = p1 - p0, pm = 0.5 * (p0 + p1);
+      r(1) += dp;
+      r(2) += kAtmosphericPressure / ((pm + kAtmosphericPressure) * (pm + kAtmosphericPressure)) * dp;
+      r(kRegressors - 2) += pm * h;
+      r(kRegressors - 1) += h;
+    }
+    return r;
+  }
+
+  // The window's row from its parts and the pressure's own columns (computed once, in the constructor).
+  Vector row(std::size_t window, const PositionPart& x, const ValvePart& y) const {
+    Vector r = pressure_columns_[window];
+    r(0) = x.r0;
+    for (int j = 0; j < 2 + kKnotCount; ++j) r(3 + j) = y.terms[j];
+    return r;
+  }
+
+  Fit solve(Sums& sums, bool with_correlation) const {
+    Matrix& gram = sums.gram;
+    const Eigen::Matrix3d& noise_gram = sums.noise_gram;
+    const Vector& cross = sums.cross;
+    const double zz = sums.zz;
+    const std::vector<std::pair<double, Vector>>& rows = sums.rows;
     Fit fit;
     fit.rows = static_cast<int>(starts_.size());
     if (gram(kRegressors - 1, kRegressors - 1) <= 0.0) return fit;
-    int n = 0;
-    for (std::size_t i = 0; i < starts_.size(); ++i) n += 1;  // counted below from the diagonal instead
-    (void)n;
     const double rows_used = gram(kRegressors - 1, kRegressors - 1) / (window_ * dt_ * window_ * dt_);
     if (rows_used < kRegressors * 10) return fit;
     gram.template triangularView<Eigen::StrictlyUpper>() = gram.transpose();
@@ -177,7 +292,8 @@ class BalanceCost {
     // The corrected fit's residual on the rows as measured (zz - c'b alone would take the removed noise as
     // explained, and could reach 0).
     const Vector coefficients_scaled = scale.cwiseProduct(c);
-    const double squares = zz - 2.0 * coefficients_scaled.dot(cross) + coefficients_scaled.dot(measured * coefficients_scaled);
+    const double squares =
+        zz - 2.0 * coefficients_scaled.dot(cross) + coefficients_scaled.dot(measured * coefficients_scaled);
     fit.rms = std::sqrt(std::max(squares, 0.0) / rows_used);
     fit.rows = static_cast<int>(std::lround(rows_used));
     if (with_correlation && rows.size() > 2) {
@@ -190,15 +306,13 @@ class BalanceCost {
       for (std::size_t lag = 1; lag <= kCorrelationLags && lag < e.size(); ++lag) {
         double ck = 0.0;
         for (std::size_t i = lag; i < e.size(); ++i) ck += e[i] * e[i - lag];
-        factor += 2.0 * (1.0 - static_cast<double>(lag) / (kCorrelationLags + 1)) * ck / c0;  // Bartlett weights
+        factor +=
+            2.0 * (1.0 - static_cast<double>(lag) / (kCorrelationLags + 1)) * ck / c0;  // Bartlett weights
       }
       fit.correlation_factor = std::max(factor, 1.0);
     }
     return fit;
   }
-  double cost(double position_shift, double valve_shift) const { return (*this)(position_shift, valve_shift).rms; }
-
- private:
   const Signals& s_;
   const IdentificationConfig& config_;
   double dt_;
@@ -206,10 +320,11 @@ class BalanceCost {
   std::size_t window_;
   std::vector<std::size_t> starts_;
   double noise_variance_;  // [Pa^2] the grid pressure's white noise
+  std::vector<Vector, Eigen::aligned_allocator<Vector>> pressure_columns_;  // per window
 };
 
 struct LineSearch {
-  double best = 0.0;        // [samples]
+  double best = 0.0;  // [samples]
   double best_cost = 0.0;
 };
 
@@ -255,7 +370,7 @@ LineSearch searchShift(const Cost& evaluate, double range) {
   return result;
 }
 
-}  // namespace}  // namespace
+}  // namespace
 
 bool TopicDelayEstimate::distinguishable() const {
   if (!valid) return false;
@@ -273,7 +388,8 @@ bool TopicDelayEstimate::significant(double sample_period) const {
   return false;
 }
 
-TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config) {
+TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
+                                       const IdentificationConfig& config) {
   TopicDelayEstimate e;
   const double dt = config.resampler.sample_period;
   const std::size_t window = std::max<std::size_t>(2, std::lround(kWindow / dt));
@@ -296,11 +412,14 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
     // Every shift the search may try must find the window's channels: the cost compares the same rows.
     bool complete = true;
     for (std::size_t j = k - reach; j <= k + window + reach && complete; ++j) {
-      complete = std::isfinite(s.x[j]) && std::isfinite(s.y[j]) && (j < k || j > k + window || std::isfinite(s.p[j]));
+      complete = std::isfinite(s.x[j]) && std::isfinite(s.y[j]) &&
+                 (j < k || j > k + window || std::isfinite(s.p[j]));
     }
     if (!complete) continue;
     const double seconds = window * dt;
-    if (std::abs(x1 - x0) < config.min_velocity * seconds && std::abs(p1 - p0) < config.min_pressure_rate * seconds) continue;
+    if (std::abs(x1 - x0) < config.min_velocity * seconds &&
+        std::abs(p1 - p0) < config.min_pressure_rate * seconds)
+      continue;
     starts.push_back(k);
     excited_samples += window;
   }
@@ -323,8 +442,8 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
   }
   const double step = std::max(1.0, std::round(kCoarseStep / dt));
   const Signals smoothed = smoothedSignals(s, static_cast<std::size_t>(step) | 1u);
-  const BalanceCost coarse(smoothed, config, dt, std::move(coarse_starts), pressure_noise.sigma() / std::sqrt(step), kWindow,
-                           static_cast<std::size_t>(step));
+  const BalanceCost coarse(smoothed, config, dt, std::move(coarse_starts),
+                           pressure_noise.sigma() / std::sqrt(step), kWindow, static_cast<std::size_t>(step));
   // The same windows' first halves, for the method's share of the uncertainty below.
   const BalanceCost half_windows(s, config, dt, starts, pressure_noise.sigma(), 0.5 * kWindow);
   const BalanceCost cost(s, config, dt, std::move(starts), pressure_noise.sigma());
@@ -336,10 +455,13 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
     double cost, position, valve;
   };
   std::vector<Point> map;
-  for (double xs = -std::floor(search_range / step) * step; xs <= search_range; xs += step) {
-    for (double vs = -std::floor(search_range / step) * step; vs <= search_range; vs += step) {
-      map.push_back({coarse.cost(xs, vs), xs, vs});
-    }
+  std::vector<double> shifts;
+  for (double shift = -std::floor(search_range / step) * step; shift <= search_range; shift += step)
+    shifts.push_back(shift);
+  const std::vector<double> map_costs = coarse.costMap(shifts, shifts);
+  for (std::size_t i = 0; i < shifts.size(); ++i) {
+    for (std::size_t j = 0; j < shifts.size(); ++j)
+      map.push_back({map_costs[i * shifts.size() + j], shifts[i], shifts[j]});
   }
   std::sort(map.begin(), map.end(), [](const Point& a, const Point& b) { return a.cost < b.cost; });
   std::vector<Point> basins;
@@ -347,7 +469,8 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
     if (!std::isfinite(candidate.cost) || basins.size() >= 3) break;
     bool near = false;
     for (const Point& b : basins) {
-      near |= std::abs(b.position - candidate.position) <= 1.5 * step && std::abs(b.valve - candidate.valve) <= 1.5 * step;
+      near |= std::abs(b.position - candidate.position) <= 1.5 * step &&
+              std::abs(b.valve - candidate.valve) <= 1.5 * step;
     }
     if (!near) basins.push_back(candidate);
   }
@@ -358,7 +481,8 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
     LineSearch x_search, v_search;
   };
   const auto refine = [&](Refined r, double range) {
-    const LineSearch both = searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve + shift); }, range);
+    const LineSearch both =
+        searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve + shift); }, range);
     r.position += both.best;
     r.valve += both.best;
     r.x_search = searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve); }, range);
@@ -411,8 +535,10 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
   // simulated presses was not finer than that (errors up to 0.23 ms on a 1 ms grid; the two parts above
   // alone covered 70 % of them at two standard uncertainties, with the floor all).
   const double floor = dt / 8.0;
-  e.resolution[kX] = std::sqrt(std::pow(statistical(true), 2) + std::pow((x_half - position) * dt, 2) + floor * floor);
-  e.resolution[kV] = std::sqrt(std::pow(statistical(false), 2) + std::pow((v_half - valve) * dt, 2) + floor * floor);
+  e.resolution[kX] =
+      std::sqrt(std::pow(statistical(true), 2) + std::pow((x_half - position) * dt, 2) + floor * floor);
+  e.resolution[kV] =
+      std::sqrt(std::pow(statistical(false), 2) + std::pow((v_half - valve) * dt, 2) + floor * floor);
   e.valid = std::isfinite(e.delays[kX]) && std::isfinite(e.delays[kV]);
   if (!e.valid) e.message = "the balance could not be fitted at any offset";
   return e;
