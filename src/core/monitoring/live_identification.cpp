@@ -54,9 +54,10 @@ std::string describe(const Resolution& r) {
 
 LiveIdentification::LiveIdentification(const IdentificationConfig& config,
                                        LiveIdentificationSettings settings)
-    : config_(config), settings_(std::move(settings)) {
-  // One estimate of the clock offsets: the survey's where it runs.
-  settings_.monitor.estimate_delays = !settings_.choose_settings;
+    : config_(config), settings_(std::move(settings)), delays_configured_(config.topicDelaysSet()) {
+  // The monitor estimates the clock offsets on its first ranking window with strokes (a session shorter
+  // than the survey is corrected too); the survey's estimate, at the finest period on all its seconds,
+  // supersedes it.
   if (settings_.choose_settings) {
     survey_ =
         std::make_unique<SettingsFromRecording>(config_, settings_.configured, settings_.survey_seconds);
@@ -139,7 +140,6 @@ void LiveIdentification::collectStudy() {
     adopt(study_.get());
   } catch (const std::exception& e) {
     study_failure_ = e.what();
-    monitor_->setDelayEstimation(true);
     event(HealthLevel::kWarn, "the settings could not be chosen from the recording (" + study_failure_ +
                                   "): the configured settings stay");
   }
@@ -150,14 +150,12 @@ void LiveIdentification::adopt(const SettingsChoice& choice) {
   IdentificationConfig next = config_;
   setResolution(next, resolutionOf(choice.config));
   std::string extra;
-  const bool delays_estimated = !config_.topicDelaysSet() && choice.delays && choice.delays->valid;
+  const bool delays_estimated = !delays_configured_ && choice.delays && choice.delays->valid;
   if (delays_estimated) {
     next.topic_delays = choice.config.topic_delays;
     const auto applied = next.appliedTopicDelays();
     extra += formatted("; clock offsets position %+.2f ms, valve %+.2f ms against pressure", 1e3 * applied[1],
                        1e3 * applied[2]);
-  } else if (!config_.topicDelaysSet()) {
-    monitor_->setDelayEstimation(true);  // the survey held too few strokes: the monitor's window will
   }
   const bool valve_changed = choice.valve_from_operation && !valve_from_sweep_;
   if (valve_changed) {

@@ -93,7 +93,7 @@ void LiveModelMonitor::startRanking() {
   if (job_.valid()) return;  // the previous one is still running: the next period tries again
   std::vector<GridSample> grid(window_.begin(), window_.end());
   // The topics' clock offsets, once, on the first window with enough strokes (unless configured).
-  if (settings_.estimate_delays && !config_.topicDelaysSet() && !delay_estimate_) {
+  if (!config_.topicDelaysSet() && !delay_estimate_) {
     TopicDelayEstimate estimate = estimateTopicDelays(grid, config_);
     if (estimate.valid) {
       delays_pending_ = estimate.significant(config_.resampler.sample_period);

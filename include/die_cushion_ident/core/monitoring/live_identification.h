@@ -40,7 +40,8 @@ struct LiveEvent {
 /// - the settings survey: the first seconds of messages are kept, SettingsFromRecording chooses the
 ///   resolution on another thread (the same study as analyze_bag), and the pipeline is rebuilt with it
 ///   where it differs (the identification then starts over on the chosen grid);
-/// - the clock offsets: the survey's estimate where it runs, else the monitor's on its first window;
+/// - the clock offsets: the monitor's on its first ranking window with strokes, superseded by the survey's
+///   (finer, on all its seconds) once the study is done;
 /// - stamps that jump back (rosbag play --loop): the pipeline restarts, counted and timed.
 /// A change of model (setEffects), settings or offsets never happens inside a pipeline callback: it is
 /// applied after the message that triggered it.
@@ -107,6 +108,7 @@ class LiveIdentification {
   std::optional<SettingsChoice> choice_;
   std::string study_failure_;  // why the study threw, if it did
   bool valve_from_sweep_ = false;
+  bool delays_configured_;  // by the user: neither the monitor nor the survey replaces them
   std::uint64_t generation_ = 0;
 
   // [s] the newest accepted input stamp, and the one at which the stamps last jumped back (NaN: never).

@@ -24,9 +24,6 @@ struct LiveMonitorSettings {
   // The node's defaults (~effect_ranking_window, ~effect_ranking_period), so that README, node and core agree.
   double ranking_window = 30.0;  ///< [s] grid samples kept for the ranking (and the step test's timing)
   double ranking_period = 10.0;  ///< [s] of grid time between rankings
-  /// Estimate the topics' clock offsets on the first window with strokes (where not configured). Off while
-  /// the owner's settings survey estimates them: one estimate, not two that disagree.
-  bool estimate_delays = true;
 };
 
 /// One finished effect ranking of the live window (with the formula search where error is left).
@@ -91,8 +88,6 @@ class LiveModelMonitor {
     config_.valve = valve;
     config_.valve_model_drives_free_run = drives_free_run;
   }
-  /// Switches the offsets' estimate on or off (LiveMonitorSettings::estimate_delays).
-  void setDelayEstimation(bool on) { settings_.estimate_delays = on; }
 
  private:
   struct Job {
