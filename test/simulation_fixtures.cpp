@@ -42,12 +42,20 @@ IdentificationConfig configFor(const SimulatorConfig& plant, const std::vector<s
 }
 
 void feed(DieCushionSimulator& plant, IdentificationPipeline& pipeline, double duration) {
+  feed(plant, duration, {}, [&](InputStream stream, const StreamSample& sample) { pipeline.push(stream, sample); });
+}
+
+void feed(DieCushionSimulator& plant, double duration, const std::array<double, kInputStreamCount>& stamp_offsets,
+          const std::function<void(InputStream, const StreamSample&)>& take) {
   std::vector<SimulatedMeasurement> messages;
   const double end = plant.state().t + duration;
   while (plant.state().t < end - 1e-12) {
     messages.clear();
     plant.step(&messages);
-    for (const auto& m : messages) pipeline.push(m.stream, m.sample);
+    for (auto& m : messages) {
+      m.sample.stamp += stamp_offsets[static_cast<int>(m.stream)];
+      take(m.stream, m.sample);
+    }
   }
 }
 

@@ -1,6 +1,8 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,10 @@ IdentificationConfig configFor(const SimulatorConfig& plant, const std::vector<s
 
 /// Runs the plant for `duration` seconds and feeds every message through `pipeline`.
 void feed(DieCushionSimulator& plant, IdentificationPipeline& pipeline, double duration);
+/// Runs the plant for `duration` seconds and hands every message to `take`, each topic's stamps shifted by
+/// its `stamp_offsets` (a topic stamped by another clock).
+void feed(DieCushionSimulator& plant, double duration, const std::array<double, kInputStreamCount>& stamp_offsets,
+          const std::function<void(InputStream, const StreamSample&)>& take);
 
 /// A simulated recording on the 2 ms grid, with its strokes.
 struct Recording {

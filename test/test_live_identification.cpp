@@ -26,23 +26,16 @@ struct LivePress {
     live = std::make_unique<LiveIdentification>(config, settings);
   }
   void run(double seconds, bool wait_for_the_study = true) {
-    std::vector<SimulatedMeasurement> messages;
-    const double end = simulator.state().t + seconds;
-    while (simulator.state().t < end - 1e-12) {
-      messages.clear();
-      simulator.step(&messages);
-      for (auto& m : messages) {
-        m.sample.stamp += stamp_offsets[static_cast<int>(m.stream)];
-        live->push(m.stream, m.sample);
-        for (auto& e : live->takeEvents()) events.push_back(e);
-      }
+    testing::feed(simulator, seconds, stamp_offsets, [&](InputStream stream, const StreamSample& sample) {
+      live->push(stream, sample);
+      for (auto& e : live->takeEvents()) events.push_back(e);
       // The study runs on its own thread: a test waits for it where the node would go on (deterministic).
       while (wait_for_the_study && live->surveying() && !surveyKeepsMessages()) {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
         live->poll();
         for (auto& e : live->takeEvents()) events.push_back(e);
       }
-    }
+    });
   }
   bool surveyKeepsMessages() const {
     return live->settingsHealth().message.find("surveying") != std::string::npos;

@@ -26,16 +26,8 @@ struct LivePlant {
   }
   /// Runs the plant; each topic's stamps are shifted by its `stamp_offsets` (a topic stamped by another clock).
   void run(double seconds) {
-    std::vector<SimulatedMeasurement> messages;
-    const double end = simulator.state().t + seconds;
-    while (simulator.state().t < end - 1e-12) {
-      messages.clear();
-      simulator.step(&messages);
-      for (auto& m : messages) {
-        m.sample.stamp += stamp_offsets[static_cast<int>(m.stream)];
-        pipeline.push(m.stream, m.sample);
-      }
-    }
+    testing::feed(simulator, seconds, stamp_offsets,
+                  [&](InputStream stream, const StreamSample& sample) { pipeline.push(stream, sample); });
   }
   std::array<double, kInputStreamCount> stamp_offsets{};
   DieCushionSimulator simulator;

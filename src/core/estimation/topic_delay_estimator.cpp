@@ -203,7 +203,9 @@ class BalanceCost {
   PositionPart positionPart(std::size_t start, double shift) const {
     PositionPart part;
     const CylinderGeometry& g = config_.geometry;
-    double x0 = at(s_.x, start, shift);
+    // The window is a whole number of steps: the last step's end is the window's end.
+    const double x_begin = at(s_.x, start, shift);
+    double x0 = x_begin;
     for (std::size_t k = start; k < start + window_; k += stride_) {
       const double p0 = s_.p[k], p1 = s_.p[k + stride_];
       const double x1 = at(s_.x, k + stride_, shift);
@@ -211,7 +213,7 @@ class BalanceCost {
       part.r0 += g.piston_area * (g.stroke_length - 0.5 * (x0 + x1)) * (p1 - p0);
       x0 = x1;
     }
-    const double x_begin = at(s_.x, start, shift), x_end = at(s_.x, start + window_, shift);
+    const double x_end = x0;
     const auto a = [&](double x, double p) {
       return Eigen::Vector3d(
           g.piston_area * (g.stroke_length - x), 1.0,

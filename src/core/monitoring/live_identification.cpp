@@ -58,11 +58,15 @@ LiveIdentification::LiveIdentification(const IdentificationConfig& config,
   // The monitor estimates the clock offsets on its first ranking window with strokes (a session shorter
   // than the survey is corrected too); the survey's estimate, at the finest period on all its seconds,
   // supersedes it.
-  if (settings_.choose_settings) {
-    survey_ =
-        std::make_unique<SettingsFromRecording>(config_, settings_.configured, settings_.survey_seconds);
-  }
+  if (settings_.choose_settings) startSurvey();
   rebuild();
+}
+
+void LiveIdentification::startSurvey() {
+  IdentificationConfig surveyed = config_;
+  // A survey restarted after the monitor corrected the offsets must still estimate them on raw stamps.
+  if (!delays_configured_) surveyed.topic_delays = {kUnsetDelay(), kUnsetDelay(), kUnsetDelay()};
+  survey_ = std::make_unique<SettingsFromRecording>(surveyed, settings_.configured, settings_.survey_seconds);
 }
 
 LiveIdentification::~LiveIdentification() {
@@ -109,9 +113,7 @@ PushResult LiveIdentification::push(InputStream stream, const StreamSample& samp
           std::string(inputStreamName(stream)) + " stamp jumped (bag restarted?): identification restarted");
     monitor_->resync();
     // A survey that saw the stamps jump back would mix two time bases: it starts over.
-    if (survey_)
-      survey_ =
-          std::make_unique<SettingsFromRecording>(config_, settings_.configured, settings_.survey_seconds);
+    if (survey_) startSurvey();
   }
   if (survey_) surveyMessage(stream, sample);
   // Changes that rebuild the pipeline, after the message (never from inside its callbacks).
@@ -167,10 +169,10 @@ void LiveIdentification::adopt(const SettingsChoice& choice) {
   // A new grid, or offsets that move by more than a quarter of a sample period, restart the identification.
   // Smaller moves (within the stamps' jitter) and a new valve model alone are handed to the running pipeline
   // (as a sweep's valve is): the estimator goes on.
+  const auto next_delays = next.appliedTopicDelays(), running_delays = config_.appliedTopicDelays();
   double largest_move = 0.0;
   for (int s = 0; s < kInputStreamCount; ++s) {
-    largest_move =
-        std::max(largest_move, std::abs(next.appliedTopicDelays()[s] - config_.appliedTopicDelays()[s]));
+    largest_move = std::max(largest_move, std::abs(next_delays[s] - running_delays[s]));
   }
   const bool changed =
       !(resolutionOf(next) == resolutionOf(config_)) || largest_move > 0.25 * next.resampler.sample_period;

@@ -88,6 +88,8 @@ class LiveIdentification {
 
  private:
   void rebuild();
+  /// A new survey of the messages from now on, on the user's offsets (not those corrected since).
+  void startSurvey();
   void onGridSample(const GridSample& g, const HydraulicIdentifier& identifier);
   void surveyMessage(InputStream stream, const StreamSample& sample);
   void collectStudy();
