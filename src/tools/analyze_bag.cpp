@@ -115,6 +115,7 @@ class SurveyThenAnalysis {
       : config_(config), jobs_(jobs), log_(log) {
     if (survey) {
       survey_ = std::make_unique<SettingsFromRecording>(config, configured);
+      survey_->setJobs(jobs);
     } else {
       start(config);
     }

@@ -328,8 +328,10 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
     // hide that).
     if (!r.partial) {
       tell("refining the parameters by the free run's error");
+      OutputErrorOptions refine;
+      refine.jobs = jobs_;
       r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),
-                                           config_.min_pressure);
+                                           config_.min_pressure, refine);
       if (r.output_error->improved) {
         for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
           r.model.parameters[i].value = r.output_error->theta(static_cast<Eigen::Index>(i));

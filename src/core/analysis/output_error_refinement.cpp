@@ -8,6 +8,7 @@
 #include "die_cushion_ident/core/analysis/free_run_pressure.h"
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/util/parallel_numeric_diff.h"
 
 namespace die_cushion_ident {
 
@@ -140,9 +141,9 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   const bool shifting = position_shift_scale > 0.0;
   // The shift in units of position_shift_scale, plus 1: Ceres's relative difference step needs a non-zero start.
   double shift = 1.0;
-  auto* cost = new ceres::DynamicNumericDiffCostFunction<FreeRunError, ceres::FORWARD>(
-      new FreeRunError{&grid, n, &model, scale, min_pressure, shifting ? position_shift_scale : 0.0},
-      ceres::TAKE_OWNERSHIP, differences);
+  auto* cost = new ParallelNumericDiffCost<FreeRunError, ceres::FORWARD>(
+      FreeRunError{&grid, n, &model, scale, min_pressure, shifting ? position_shift_scale : 0.0}, differences,
+      refine.jobs);
   cost->AddParameterBlock(static_cast<int>(k));
   if (shifting) cost->AddParameterBlock(1);
   cost->SetNumResiduals(static_cast<int>(n));
@@ -206,8 +207,9 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   // left the stds a third of the errors on fast presses. J by central differences at the solution.
   // Where the position's shift was an unknown, the stds are those with the shift held at its optimum.
   Eigen::MatrixXd jacobian(n, k);
-  std::vector<double> plus(n), minus(n);
-  for (Eigen::Index i = 0; i < k; ++i) {
+  parallelFor(static_cast<std::size_t>(k), refine.jobs, [&](std::size_t column) {
+    const auto i = static_cast<Eigen::Index>(column);
+    std::vector<double> plus(n), minus(n);
     const double h = 1e-4 * std::max(std::abs(theta(i)), scale(i) * 1e-3);
     ParameterVector t = theta;
     t(i) += h;
@@ -216,7 +218,7 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
     freeRunResiduals(fitted, n, model, t, min_pressure, minus.data());
     // r = p - p_hat: d p_hat / d theta = -(dr / d theta)
     for (std::size_t s = 0; s < n; ++s) jacobian(s, i) = -(plus[s] - minus[s]) / (2.0 * h);
-  }
+  });
   const Eigen::MatrixXd information = jacobian.transpose() * jacobian;
   const std::size_t block = std::max<std::size_t>(n / kBlocks, 1);
   Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(k, k);

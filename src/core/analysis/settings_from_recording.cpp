@@ -265,7 +265,8 @@ constexpr std::size_t kDelaySamples = 12000;
 // model's free run comes near the noise (refineByOutputError keeps nothing else: a model that lacks an
 // effect would bend the offset to hide it). The refinement where the offset moved.
 std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, const HydraulicEstimate& fit,
-                                                  const std::vector<GridSample>& grid, SettingsChoice& choice) {
+                                                  const std::vector<GridSample>& grid, int jobs,
+                                                  SettingsChoice& choice) {
   if (!choice.delays || !choice.delays->valid || fit.updates == 0 || !fit.values().allFinite()) return std::nullopt;
   constexpr int kPosition = static_cast<int>(InputStream::kPosition);
   const double prior = choice.delays->resolution[kPosition];
@@ -276,6 +277,7 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   // Its std is the floor: the sandwich's (a Jacobian of 2 (k + 1) free runs more) was 20-50 times smaller.
   options.with_stds = false;
   options.max_samples = kDelaySamples;
+  options.jobs = jobs;
   const OutputErrorFit refined =
       refineByOutputError(grid, model, fit.values(), fit.standardDeviations(), choice.config.min_pressure, options);
   if (!refined.improved) return std::nullopt;
@@ -428,7 +430,7 @@ SettingsChoice SettingsFromRecording::choose() const {
       HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
   // The position's offset refined by the free run: the finest level's grid read with it, and the refined
   // parameters (fitted with it) studied.
-  const std::optional<OutputErrorFit> refined = refinePositionDelay(model, fit, levels.back().grid, choice);
+  const std::optional<OutputErrorFit> refined = refinePositionDelay(model, fit, levels.back().grid, jobs_, choice);
   if (refined) {
     Level& finest = levels.back();
     finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice.position_delay_shift);

@@ -140,14 +140,17 @@ class BalanceCost {
     }
   };
 
-  // The fit's residual with position and valve channels shifted [samples].
+  // The fit's residual with position and valve channels shifted [samples]. The windows' parts at the last
+  // position shift and at the last valve shift are kept: a line search along one offset moves only its own
+  // part (two thirds of the refinement's evaluations), and a curvature probe moves one. Not for several
+  // threads at once.
   Fit operator()(double position_shift, double valve_shift, bool with_correlation = false) const {
+    const std::vector<PositionPart>& x = positionParts(position_shift);
+    const std::vector<ValvePart>& y = valveParts(valve_shift);
     Sums sums;
     if (with_correlation) sums.rows.reserve(starts_.size());
     for (std::size_t w = 0; w < starts_.size(); ++w) {
-      const PositionPart x = positionPart(starts_[w], position_shift);
-      const ValvePart y = valvePart(starts_[w], valve_shift);
-      if (x.usable && y.usable) sums.add(row(w, x, y), x.z, x.a_begin, x.a_end, with_correlation);
+      if (x[w].usable && y[w].usable) sums.add(row(w, x[w], y[w]), x[w].z, x[w].a_begin, x[w].a_end, with_correlation);
     }
     return solve(sums, with_correlation);
   }
@@ -248,6 +251,23 @@ class BalanceCost {
     return part;
   }
 
+  const std::vector<PositionPart>& positionParts(double shift) const {
+    if (!(position_cache_.shift == shift)) {
+      position_cache_.parts.clear();
+      for (std::size_t start : starts_) position_cache_.parts.push_back(positionPart(start, shift));
+      position_cache_.shift = shift;
+    }
+    return position_cache_.parts;
+  }
+  const std::vector<ValvePart>& valveParts(double shift) const {
+    if (!(valve_cache_.shift == shift)) {
+      valve_cache_.parts.clear();
+      for (std::size_t start : starts_) valve_cache_.parts.push_back(valvePart(start, shift));
+      valve_cache_.shift = shift;
+    }
+    return valve_cache_.parts;
+  }
+
   // The pressure's own columns of the window starting at `start` (no shift moves them).
   Vector pressureColumns(std::size_t start) const {
     Vector r = Vector::Zero();
@@ -323,6 +343,13 @@ class BalanceCost {
   std::vector<std::size_t> starts_;
   double noise_variance_;  // [Pa^2] the grid pressure's white noise
   std::vector<Vector, Eigen::aligned_allocator<Vector>> pressure_columns_;  // per window
+  template <typename Part>
+  struct PartsAt {
+    double shift = std::numeric_limits<double>::quiet_NaN();  // [samples] NaN: none kept
+    std::vector<Part> parts;                                  // per window
+  };
+  mutable PartsAt<PositionPart> position_cache_;
+  mutable PartsAt<ValvePart> valve_cache_;
 };
 
 struct LineSearch {

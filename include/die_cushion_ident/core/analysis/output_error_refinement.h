@@ -40,6 +40,8 @@ struct OutputErrorOptions {
   /// press the free run resolves a clock offset ten times finer than the integral-form delay estimate, whose
   /// 0.08 ms left 6 times the noise (doc/resolution.md).
   double position_shift_scale = 0.0;
+  /// Threads for the Jacobian's columns (0: one per core). 1 where the caller runs fits side by side.
+  int jobs = 1;
 };
 
 /// Minimises the free run's error over the parameters (Ceres, from the equation-error estimate `start`),

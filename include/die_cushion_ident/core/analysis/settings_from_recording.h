@@ -95,6 +95,9 @@ class SettingsFromRecording {
   SettingsFromRecording(const IdentificationConfig& config, std::set<std::string> configured_keys,
                         double survey_seconds = 24.0, std::size_t max_messages = 400000);
 
+  /// Threads for the study's output-error refinement (0: one per core; 1, the default, where the study runs
+  /// beside live work).
+  void setJobs(int jobs) { jobs_ = jobs; }
   /// Keeps a message for the survey; false once the survey is complete (later messages are not kept).
   bool push(InputStream stream, const StreamSample& sample);
   bool complete() const { return complete_; }
@@ -108,6 +111,7 @@ class SettingsFromRecording {
   std::set<std::string> configured_;
   double survey_seconds_;
   std::size_t max_messages_;
+  int jobs_ = 1;
   std::vector<std::pair<InputStream, StreamSample>> messages_;
   double first_stamp_ = std::numeric_limits<double>::quiet_NaN();
   bool complete_ = false;
