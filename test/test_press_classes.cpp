@@ -14,7 +14,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <algorithm>
 #include <fstream>
+#include <map>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -41,8 +44,10 @@ die_cushion_ident::testing::CommandResult run(const std::string& command) {
 struct Case {
   std::string press, effect = "none", sensors;
   int variation = 0, seed = 1;
+  int onset = 0;  // > 0: the effect acts from this press cycle of 10 on
   std::string name() const {
     std::string n = press + "_v" + std::to_string(variation) + "_s" + std::to_string(seed) + "_" + effect;
+    if (onset > 0) n += "_from" + std::to_string(onset);
     for (char c : sensors) n += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
     return n;
   }
@@ -59,8 +64,9 @@ Recorded record(const Case& c) {
   r.bag = base + ".bag";
   r.config = base + ".yaml";
   const std::string effects = c.effect == "none" ? "" : " --plant-effects " + c.effect;
+  const std::string cycles = c.onset > 0 ? " --cycles 10 --effects-from-cycle " + std::to_string(c.onset) : " --cycles 8";
   const auto result = run(kTools + "/simulate_bag " + r.bag + " --press " + c.press + " --variation " +
-                          std::to_string(c.variation) + " --seed " + std::to_string(c.seed) + " --cycles 8" + effects +
+                          std::to_string(c.variation) + " --seed " + std::to_string(c.seed) + cycles + effects +
                           " " + c.sensors + " --write-config " + r.config + " --write-truth " + base + "_truth.yaml");
   EXPECT_EQ(result.status, 0) << result.output;
   r.truth = YAML::LoadFile(base + "_truth.yaml");
@@ -131,6 +137,7 @@ TEST_F(PressClasses, ACleanPressOfEveryClassReadsRight) {
                     1e3 * a.summary["settings"]["sample_period"]["value"].as<double>(), missingVerdicts(a.summary).c_str());
         EXPECT_LE(error, 2.0 * noise) << "free run within twice the pressure noise";
         EXPECT_EQ(missingVerdicts(a.summary), "") << a.summary["adequacy"]["conclusion"];
+        EXPECT_FALSE(a.summary["change_within_recording"]) << "no change named on a steady press";
         EXPECT_LT(std::abs(bulk), 0.10) << "bulk modulus within 10 %";
       }
     }
@@ -233,4 +240,119 @@ TEST_F(PressClasses, FalseAlarmsOnCleanPressesStayAtTheSignificance) {
   if (recordings < 40) {
     EXPECT_EQ(alarms, 0) << "none in the suite's few";
   }
+}
+
+// The reported stds mean what they say on recordings of every class, sensor configuration and effect (the
+// right model configured): |estimate - truth| / std has a median near a Gaussian's 0.67 and 95 % of the
+// errors lie within 1.96 std. Random plants (variations 1-60) and noise seeds; recordings the analysis
+// flags as partial (exit 5: an implausible fit) are left out, as a user is told not to read them.
+// DCI_PRESS_CALIBRATION=N recordings (scripts/uncertainty_calibration: 250, the median within 0.55-0.8 and the
+// coverage within 93-97 %); the suite runs 20, one per class and sensor configuration, with bounds that
+// hold for so few.
+TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects) {
+  const char* requested = std::getenv("DCI_PRESS_CALIBRATION");
+  const int recordings = requested ? std::max(20, std::atoi(requested)) : 20;
+  const std::vector<std::string> effects = {"none", "leakage", "entrained_air", "valve_overlap", "tank_pressure"};
+  std::mt19937 random(20261125);
+  std::vector<double> ratios;
+  std::map<std::string, std::vector<double>> by_group;
+  int flagged = 0;
+  for (int k = 0; k < recordings; ++k) {
+    Case c;
+    c.press = kClasses[(k / kSensorConfigurations.size()) % kClasses.size()];
+    c.sensors = kSensorConfigurations[k % kSensorConfigurations.size()];
+    c.effect = effects[(k / (kSensorConfigurations.size() * kClasses.size()) + k) % effects.size()];
+    c.variation = std::uniform_int_distribution<int>(1, 60)(random);
+    c.seed = std::uniform_int_distribution<int>(1, 100000)(random);
+    SCOPED_TRACE(c.name());
+    const Recorded r = record(c);
+    const Analysis a = analyze(r, kWork + "/calibration", c.effect == "none" ? "" : "--effects " + c.effect);
+    if (a.status == 5) {
+      ++flagged;
+      continue;
+    }
+    ASSERT_EQ(a.status, 0) << a.output;
+    for (const auto& p : a.summary["model"]["parameters"]) {
+      const std::string name = p["name"].as<std::string>();
+      if (!r.truth[name]) continue;
+      const double ratio = std::abs(p["value"].as<double>() - r.truth[name].as<double>()) / p["std"].as<double>();
+      ratios.push_back(ratio);
+      by_group[c.press].push_back(ratio);
+      by_group[c.sensors.empty() ? "all sensors" : c.sensors].push_back(ratio);
+      by_group[name].push_back(ratio);
+    }
+  }
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const auto coverage = [](const std::vector<double>& v) {
+    return static_cast<double>(std::count_if(v.begin(), v.end(), [](double r) { return r <= 1.96; })) / v.size();
+  };
+  for (const auto& [group, v] : by_group) {
+    std::printf("  %-32s %4zu estimates: median |error|/std %.2f, within 1.96 std %.1f %%\n", group.c_str(), v.size(),
+                median(v), 100.0 * coverage(v));
+  }
+  ASSERT_FALSE(ratios.empty());
+  std::printf("|error| / std over %d recordings (%d flagged partial and left out), %zu estimates: median %.2f, "
+              "within 1.96 std %.1f %%\n",
+              recordings, flagged, ratios.size(), median(ratios), 100.0 * coverage(ratios));
+  if (recordings >= 200) {
+    EXPECT_GE(median(ratios), 0.55);
+    EXPECT_LE(median(ratios), 0.80);
+    EXPECT_GE(coverage(ratios), 0.93);
+    EXPECT_LE(coverage(ratios), 0.97);
+  } else {
+    // ~75 estimates: the median's and the coverage's own scatter.
+    EXPECT_GE(median(ratios), 0.35);
+    EXPECT_LE(median(ratios), 1.0);
+    EXPECT_GE(coverage(ratios), 0.85);
+  }
+  EXPECT_LE(flagged, std::max(1, recordings / 50));
+}
+
+// A library effect that starts within the recording (simulate_bag --effects-from-cycle) is named, with the
+// press cycle it starts in: the first cycle whose impact comes after it started, within one either side.
+// DCI_PRESS_ONSETS=N recordings of a leak starting at a random cycle (3-7 of 10) on random plants of every
+// class and sensor configuration (scripts/press_matrix: 50; at least 90 % named with their cycle); the
+// suite runs one leak per class and, on two classes, air and a valve overlap.
+TEST_F(PressClasses, AnEffectThatStartsWithinTheRecordingIsNamedWithItsCycle) {
+  const char* requested = std::getenv("DCI_PRESS_ONSETS");
+  const int recordings = requested ? std::max(4, std::atoi(requested)) : 6;
+  std::mt19937 random(27);
+  int named = 0;
+  for (int k = 0; k < recordings; ++k) {
+    Case c;
+    // The suite's air on the paper's press, its overlap on a small stiff chamber (on a fast press an overlap
+    // that starts was taken for air in 2 of 6 recordings: its free run after the step tells them apart
+    // less well than the chamber's).
+    c.press = requested || k < 4 ? kClasses[k % kClasses.size()] : k == 4 ? "slow_hydraulic" : "small_stiff";
+    c.effect = requested || k < 4 ? "leakage" : k == 4 ? "entrained_air" : "valve_overlap";
+    c.sensors = requested ? kSensorConfigurations[(k / kClasses.size()) % kSensorConfigurations.size()] : "";
+    c.variation = std::uniform_int_distribution<int>(1, 60)(random);
+    c.seed = std::uniform_int_distribution<int>(1, 100000)(random);
+    c.onset = std::uniform_int_distribution<int>(3, 7)(random);
+    SCOPED_TRACE(c.name());
+    const Recorded r = record(c);
+    const Analysis a = analyze(r, kWork + "/onset");
+    ASSERT_TRUE(a.status == 0 || a.status == 5) << a.output;
+    const YAML::Node change = a.summary["change_within_recording"];
+    bool right = false;
+    if (change) {
+      // The cycle the truth falls in, counted from the named one by the cycles' period.
+      const double cycles_off = (r.truth["effects_from_time"].as<double>() - change["from_time"].as<double>()) /
+                                change["cycle_period"].as<double>();
+      const int expected = change["from_cycle"].as<int>() + static_cast<int>(std::ceil(cycles_off - 1e-9));
+      right = change["effect"].as<std::string>() == c.effect && std::abs(expected - change["from_cycle"].as<int>()) <= 1;
+      std::printf("%-56s named %s from cycle %d (truth: cycle %d), t = %.1f\n", c.name().c_str(),
+                  change["effect"].as<std::string>().c_str(), change["from_cycle"].as<int>(), expected,
+                  change["t_statistic"].as<double>());
+    } else {
+      std::printf("%-56s nothing named\n", c.name().c_str());
+    }
+    named += right ? 1 : 0;
+    if (!requested) EXPECT_TRUE(right) << (change ? change["explanation"].as<std::string>() : std::string("none"));
+  }
+  std::printf("effects starting within the recording named with their cycle: %d of %d\n", named, recordings);
+  EXPECT_GE(named, 0.9 * recordings);
 }

@@ -44,12 +44,22 @@ void emitRegions(YAML::Emitter& out, const char* key, const std::vector<RegionEr
   out << YAML::EndSeq;
 }
 
-void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& parameters) {
+// `uncertainty`, where given (one per parameter), says what each std is made of.
+void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& parameters,
+                    const std::vector<ParameterUncertainty>& uncertainty = {}) {
   out << YAML::BeginSeq;
-  for (const auto& p : parameters) {
+  for (std::size_t i = 0; i < parameters.size(); ++i) {
+    const IdentifiedParameter& p = parameters[i];
     out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name << YAML::Key
         << "value" << YAML::Value << p.value << YAML::Key << "std" << YAML::Value << p.std << YAML::Key
-        << "unit" << YAML::Value << p.unit << YAML::EndMap;
+        << "unit" << YAML::Value << p.unit;
+    if (i < uncertainty.size()) {
+      const ParameterUncertainty& u = uncertainty[i];
+      out << YAML::Key << "std_parts" << YAML::Value << YAML::BeginMap << YAML::Key << "regression" << YAML::Value
+          << u.regression << YAML::Key << "cycles" << YAML::Value << u.cycles << YAML::Key << "method"
+          << YAML::Value << u.method << YAML::EndMap;
+    }
+    out << YAML::EndMap;
   }
   out << YAML::EndSeq;
 }
@@ -223,7 +233,11 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   out << YAML::Key << "valve_model" << YAML::Value << r.valve_model_source;
   // Only what was computed: no initial values shown as estimates, no 0 for an error that was not measured.
   out << YAML::Key << "parameters" << YAML::Value;
-  emitParameters(out, r.model.updates > 0 ? r.model.parameters : std::vector<IdentifiedParameter>());
+  if (r.model.updates > 0) {
+    emitParameters(out, r.model.parameters, r.uncertainty);
+  } else {
+    emitParameters(out, {});
+  }
   if (r.output_error) {
     // The parameters are the equation-error fit's, refined by the free run's error where that fell.
     out << YAML::Key << "refined_by_free_run" << YAML::Value << YAML::BeginMap;
@@ -350,6 +364,25 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
+  if (r.onset) {
+    // An effect that starts within the recording, and the press cycle it starts in.
+    const EffectOnset& o = *r.onset;
+    out << YAML::Key << "change_within_recording" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "effect" << YAML::Value << o.effect;
+    out << YAML::Key << "parameter" << YAML::Value << o.parameter;
+    out << YAML::Key << "unit" << YAML::Value << o.unit;
+    out << YAML::Key << "from_cycle" << YAML::Value << o.cycle;
+    out << YAML::Key << "from_time" << YAML::Value << o.time;
+    out << YAML::Key << "cycle_period" << YAML::Value << o.cycle_period;
+    out << YAML::Key << "before" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value
+        << o.before << YAML::Key << "std" << YAML::Value << o.before_std << YAML::EndMap;
+    out << YAML::Key << "after" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value
+        << o.after << YAML::Key << "std" << YAML::Value << o.after_std << YAML::EndMap;
+    out << YAML::Key << "t_statistic" << YAML::Value << o.t_statistic;
+    out << YAML::Key << "p_value" << YAML::Value << o.p_value;
+    out << YAML::Key << "explanation" << YAML::Value << o.explanation;
     out << YAML::EndMap;
   }
   // The files this run wrote (each complete: written under a temporary name, renamed when whole).

@@ -27,6 +27,7 @@ const char* kUsage =
     "                    [--press CLASS] [--variation N] [--write-config FILE.yaml] [--write-truth FILE.yaml]\n"
     "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name N]\n"
     "                    [--rates P,X,V] [--stamp-offsets P,X,V] [--continuous-command] [--start-offset S]\n"
+    "                    [--effects-from-cycle K]\n"
     "  Press cycles of the simulated die cushion on /die_cushion/{pressure,position,valve};\n"
     "  --press CLASS          the kind of press: slow_hydraulic (the paper's, default; 2.62 s cycles),\n"
     "                         fast_mechanical (crank, 0.5 m/s, 4 ms impact), small_stiff (0.02 m^2, 1 l),\n"
@@ -35,6 +36,9 @@ const char* kUsage =
     "                         analyze_bag --config; --write-truth FILE its true parameters (YAML);\n"
     "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest;\n"
     "  --step-test V then a valve command step of V volts at rest (held 1.5 s), for the pressure's t63.\n"
+    "  --effects-from-cycle K the plant effects act only from press cycle K on (0: the first; before it their\n"
+    "                         parameters are 0): a leak or air that starts while the press is recorded;\n"
+    "                         --write-truth then adds effects_from_cycle and effects_from_time [s].\n"
     "  Sensor configurations a press may have:\n"
     "    --no-velocity         JointState with position only (a linear encoder)\n"
     "    --no-spool            spool position not measured (NaN)\n"
@@ -110,6 +114,7 @@ int run(int argc, char** argv) {
   double cycles = 6, hours = 0.0, epoch = 1.7e9, start_offset = 0.0;
   bool sweep = false, continuous_command = false;
   double step_test = 0.0;
+  double effects_from_cycle = 0.0;
   // The sensors and true parameters as given; the plant itself is the press class's, built after parsing.
   SimulatorConfig plant;
   PressClass press = PressClass::kSlowHydraulic;
@@ -172,6 +177,7 @@ int run(int argc, char** argv) {
       .option("--stamp-offsets", [&](const std::string& v) { threeNumbers(v, recording.stamp_offsets); })
       .flag("--continuous-command", [&] { continuous_command = true; })
       .number("--start-offset", 0.0, 1e6, &start_offset)
+      .number("--effects-from-cycle", 0.0, 1e6, &effects_from_cycle)
       .number("--epoch", 0.0, 4e9, &epoch)
       .positional("output bag", 1, [&](const std::string& v) { out = v; });
   arguments.parseOrExit(argc, argv, "simulate_bag", kUsage);
@@ -220,6 +226,10 @@ int run(int argc, char** argv) {
     for (std::size_t i = 0; i < infos.size(); ++i) file << infos[i].name << ": " << probe.trueParameters()(i) << "\n";
     file << "valve_natural_frequency: " << plant.valve.natural_frequency << "\nvalve_damping: " << plant.valve.damping
          << "\nvalve_gain: " << plant.valve.gain << "\nvalve_dead_time: " << plant.valve.dead_time << "\n";
+    if (effects_from_cycle > 0.0) {
+      file << "effects_from_cycle: " << effects_from_cycle
+           << "\neffects_from_time: " << effects_from_cycle * probe.program().cycleDuration() - start_offset << "\n";
+    }
     if (!file) {
       std::cerr << "simulate_bag: cannot write " << truth_out << "\n";
       return 1;
@@ -234,7 +244,22 @@ int run(int argc, char** argv) {
     DieCushionSimulator press(plant);
     const double duration = hours > 0.0 ? hours * 3600.0 : cycles * press.program().cycleDuration();
     std::vector<SimulatedMeasurement> messages;
+    // The effects' own parameters (after the base model's three) held at 0 until their cycle.
+    const ParameterVector effect_truth = press.trueParameters();
+    const auto& infos = press.model().parameterInfos();
+    const double effects_from = effects_from_cycle * press.program().cycleDuration();
+    bool effects_acting = !(effects_from > 0.0);
+    const auto setEffects = [&](bool acting) {
+      for (std::size_t i = HydraulicModel::kDeadVolume + 1; i < infos.size(); ++i) {
+        press.setTrueParameter(infos[i].name, acting ? effect_truth(static_cast<Eigen::Index>(i)) : 0.0);
+      }
+    };
+    if (!effects_acting) setEffects(false);
     while (press.state().t < duration + start_offset) {
+      if (!effects_acting && press.state().t >= effects_from) {
+        setEffects(true);
+        effects_acting = true;
+      }
       messages.clear();
       press.step(&messages);
       if (press.state().t < start_offset) continue;  // not recorded yet: the recording starts mid-stroke

@@ -12,6 +12,7 @@
 
 #include "die_cushion_ident/core/analysis/free_run_pressure.h"
 #include "die_cushion_ident/core/analysis/output_error_refinement.h"
+#include "die_cushion_ident/core/util/parallel_for.h"
 
 namespace die_cushion_ident {
 
@@ -176,14 +177,15 @@ HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeS
 }
 
 bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups) {
+                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups, int jobs) {
   const int cycles = strokes.cycles;
   const int g_count = std::min(groups, cycles);
   if (g_count < 4 || estimate->parameters.empty()) return false;
   const std::size_t n = estimate->parameters.size();
   const auto all = strokes.range(INT_MIN, INT_MAX);
-  std::vector<std::vector<double>> replicates;
-  for (int g = 0; g < g_count; ++g) {
+  std::vector<std::vector<double>> replicates(static_cast<std::size_t>(g_count));
+  parallelFor(replicates.size(), jobs, [&](std::size_t group) {
+    const int g = static_cast<int>(group);
     // Group g: cycles [g * cycles / G, (g + 1) * cycles / G), contiguous; the rest of the recording
     // (with whatever precedes the first and follows the last cycle) is refitted without it.
     const int first = g * cycles / g_count, last = (g + 1) * cycles / g_count - 1;
@@ -192,10 +194,13 @@ bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmen
     if (left_out.first > all.first) kept.emplace_back(all.first, left_out.first);
     if (all.second > left_out.second) kept.emplace_back(left_out.second, all.second);
     const HydraulicEstimate e = fitOnStretches(grid, config, kept);
-    if (e.updates == 0 || e.parameters.size() != n) return false;
+    if (e.updates == 0 || e.parameters.size() != n) return;
     std::vector<double> values(n);
     for (std::size_t k = 0; k < n; ++k) values[k] = e.parameters[k].value;
-    replicates.push_back(std::move(values));
+    replicates[group] = std::move(values);
+  });
+  for (const auto& r : replicates) {
+    if (r.size() != n) return false;
   }
   for (std::size_t k = 0; k < n; ++k) {
     double mean = 0.0;

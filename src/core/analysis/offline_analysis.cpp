@@ -7,8 +7,11 @@
 
 #include <boost/math/distributions/chi_squared.hpp>
 
+#include "die_cushion_ident/core/analysis/cycle_group_fits.h"
+#include "die_cushion_ident/core/analysis/effect_onset.h"
 #include "die_cushion_ident/core/analysis/formula_search.h"
 #include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/analysis/parameter_uncertainty.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
 
@@ -19,19 +22,17 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<Gr
                                                              const IdentificationConfig& config,
                                                              const HydraulicEstimate& estimate, int groups,
                                                              int jobs) {
+  return parametersThatVaryOverTheRecording(CycleGroupFits(grid, strokes, config, groups, jobs), estimate);
+}
+
+std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits& groups,
+                                                             const HydraulicEstimate& estimate) {
   std::vector<std::string> found;
   const std::size_t n = estimate.parameters.size();
-  const int g_count = std::min(groups, strokes.cycles);
-  if (g_count < 4 || n == 0) return found;
-  std::vector<HydraulicEstimate> fits(g_count);
-  parallelFor(static_cast<std::size_t>(g_count), jobs, [&](std::size_t g) {
-    const int first = static_cast<int>(g) * strokes.cycles / g_count;
-    const int last = (static_cast<int>(g) + 1) * strokes.cycles / g_count - 1;
-    fits[g] = fitOnCycles(grid, strokes, config, first, last);
-  });
-  for (const auto& f : fits) {
-    if (f.updates == 0 || f.parameters.size() != n) return found;
-  }
+  if (!groups.valid() || n == 0 || groups.estimate(0).parameters.size() != n) return found;
+  const int g_count = groups.size();
+  std::vector<HydraulicEstimate> fits;
+  for (int g = 0; g < g_count; ++g) fits.push_back(groups.estimate(g));
   const boost::math::chi_squared_distribution<double> chi_square(g_count - 1);
   for (std::size_t k = 0; k < n; ++k) {
     const IdentifiedParameter& p = estimate.parameters[k];
@@ -314,8 +315,15 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
                              "it down (more varied strokes would), or an effect the model lacks pulls it");
       }
       tell("fitting each group of cycles alone (does a parameter change over the recording?)");
-      for (const auto& spread : parametersThatVaryOverTheRecording(grid_, r.strokes, config_, r.model, 10, jobs_)) {
+      const CycleGroupFits cycle_groups(grid_, r.strokes, config_, 10, jobs_);
+      for (const auto& spread : parametersThatVaryOverTheRecording(cycle_groups, r.model)) {
         r.warnings.push_back(spread);
+      }
+      tell("looking for an effect that starts within the recording");
+      r.onset = findEffectOnset(grid_, r.strokes, config_, kVariationSignificance, jobs_);
+      if (r.onset) {
+        r.warnings.push_back(r.onset->explanation + ". The whole recording's fit averages over the change: " +
+                             "analyse the cycles from it on alone, or with " + r.onset->effect + " in the model");
       }
     }
   }
@@ -323,6 +331,7 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
     // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
   } else if (r.hydraulics) {
+    const HydraulicEstimate equation_error = r.model;
     // Refined by the free run's error where that brings it to the noise (refineByOutputError), unless the
     // fit is implausible (then the model does not describe the recording, and fitting its free run would
     // hide that).
@@ -335,13 +344,18 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
       if (r.output_error->improved) {
         for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
           r.model.parameters[i].value = r.output_error->theta(static_cast<Eigen::Index>(i));
-          // The larger of the two stds: the free run's sandwich sees only the residuals' scatter, not the
-          // bias the noisy inputs (position, spool) drive into it (on fast presses its stds were a third of
-          // the errors); the equation-error std is calibrated (doc/equations.md, "Uncertainty").
+          // The larger of the two fits' own stds: the free run's sandwich sees only the residuals' scatter,
+          // not the bias the noisy inputs (position, spool) drive into it (on fast presses a third of the
+          // errors); the cycle jackknife and the method's part below add what both miss (doc/equations.md,
+          // "Uncertainty").
           r.model.parameters[i].std = std::max(r.model.parameters[i].std, r.output_error->std(static_cast<Eigen::Index>(i)));
         }
       }
     }
+    tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
+    HydraulicEstimate jackknife = equation_error;
+    const bool resampled = applyCycleJackknife(grid_, r.strokes, config_, &jackknife, 10, jobs_);
+    r.uncertainty = combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model);
     const ParameterVector theta = r.model.values();
     tell("running the model free against the measurement");
     r.assessment = assessModel(grid_, r.strokes, model, theta, config_.min_pressure);

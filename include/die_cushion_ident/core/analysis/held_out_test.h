@@ -53,9 +53,10 @@ HydraulicEstimate fitOnCycles(const std::vector<GridSample>& grid, const StrokeS
 /// jackknife over press cycles: the cycles split into `groups` contiguous groups (at most one per cycle),
 /// the model refitted without each, se^2 = (G-1)/G sum_g (theta_(g) - mean)^2. Cycles are the independent
 /// units, so the correlation of the errors within a stroke and the error of the model itself are in it.
-/// The reported stds (Newey-West) are checked against it in test_uncertainty_calibration. False, and
-/// nothing changed, with fewer than 4 cycles or a refit that fails.
+/// It is one part of the reported stds (combineUncertainty). False, and nothing changed, with fewer than 4
+/// cycles or a refit that fails. The refits on up to `jobs` threads (0: one per core).
 bool applyCycleJackknife(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups = 10);
+                         const IdentificationConfig& config, HydraulicEstimate* estimate, int groups = 10,
+                         int jobs = 1);
 
 }  // namespace die_cushion_ident

@@ -10,7 +10,9 @@
 #include "die_cushion_ident/core/analysis/effect_ranking.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/analysis/effect_onset.h"
 #include "die_cushion_ident/core/analysis/output_error_refinement.h"
+#include "die_cushion_ident/core/analysis/parameter_uncertainty.h"
 #include "die_cushion_ident/core/analysis/settings_from_recording.h"
 #include "die_cushion_ident/core/valve/recorded_sweep.h"
 #include "die_cushion_ident/core/valve/step_response.h"
@@ -49,6 +51,10 @@ struct OfflineResult {
   HydraulicEstimate model;
   /// The refinement of `model` by the free run's error (its values and stds are then `model`'s), when run.
   std::optional<OutputErrorFit> output_error;
+  /// A library effect that starts within the recording, and the cycle it starts in (findEffectOnset).
+  std::optional<EffectOnset> onset;
+  /// What each of `model`'s stds is made of (model order; combineUncertainty).
+  std::vector<ParameterUncertainty> uncertainty;
   bool hydraulics = false;  ///< pressure and position were there to identify the hydraulics
   StrokeSegmentation strokes;
   ModelAssessment assessment;
@@ -99,6 +105,10 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const std::vector<Gr
                                                              const IdentificationConfig& config,
                                                              const HydraulicEstimate& estimate, int groups = 10,
                                                              int jobs = 1);
+class CycleGroupFits;
+/// The same on groups already fitted.
+std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits& groups,
+                                                             const HydraulicEstimate& estimate);
 
 /// The offline analysis on the same core as the node: messages in, the pipeline's uniform samples kept, and
 /// at the end the whole-recording fit, the free-run comparison, the effect ranking and the valve sweep.
