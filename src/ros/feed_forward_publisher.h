@@ -37,6 +37,11 @@ class FeedForwardPublisher {
   /// The model was rebuilt (effects changed): the next update starts afresh.
   void modelChanged();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const;
+  /// A command other than 0 V went out last (the cell controller adds it).
+  bool engaged() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !withdrawn_;
+  }
 
  private:
   void onSetpoint(const sensor_msgs::FluidPressure::ConstPtr& msg);

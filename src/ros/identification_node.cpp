@@ -45,13 +45,12 @@ void fill(diagnostic_updater::DiagnosticStatusWrapper& status, const HealthRepor
 }  // namespace
 
 IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
-    : nh_(nh), pnh_(pnh), sweep_(SweepLimits()), updater_(nh, pnh, name) {
+    : nh_(nh), pnh_(pnh), updater_(nh, pnh, name) {
   IdentificationConfig config;
   const auto problems = loadParameters(pnh_, &config, &limits_, &settings_);
   if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + joined(problems, "\n  "));
-  sweep_ = ValveSweep(limits_);
-  sweep_.setCommandHold(config.valve_command_hold);
-  step_test_ = ValveStepTest(limits_);
+  experiments_ = ValveExperiments(limits_);
+  experiments_.setCommandHold(config.valve_command_hold);
   joints_ = JointSelector(settings_.joint_name);
   feed_forward_ = std::make_unique<FeedForwardPublisher>(
       nh_, pnh_, settings_.valve_gain, settings_.feed_forward_max_age, limits_.min_voltage, limits_.max_voltage,
@@ -107,6 +106,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
     fill(s, live_->settingsHealth());
   });
   updater_.add("step test", this, &IdentificationNode::diagnoseStepTest);
+  updater_.add("valve experiments", this, &IdentificationNode::diagnoseExperiments);
   updater_.add("feed-forward", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { feed_forward_->diagnose(s); });
   // diagnostic_updater waits for ROS time to reach its next period: after the clock jumps back (rosbag play
   // --loop) it would stay silent for a whole loop, right when the restart needs telling. Forced then.
@@ -129,19 +129,14 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
 
 IdentificationNode::~IdentificationNode() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (step_test_.running()) {
-    step_test_.abort("shutdown");
-    if (const auto u = step_test_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
-  }
-  if (!sweep_.running()) return;
-  sweep_.abort("shutdown");
-  if (const auto u = sweep_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
+  experiments_.abort("shutdown");
+  if (const auto u = experiments_.command(ros::Time::now().toSec())) publishSweepCommand(*u);
 }
 
 bool IdentificationNode::valveExperimentRunning() const {
   std::lock_guard<std::mutex> lock(mutex_);
   // A step test's interlocks are as time-critical as a sweep's: both want the fine spin.
-  return sweep_commanding_ || step_test_.running();
+  return experiment_commanding_ || experiments_.holdsValve();
 }
 
 // ---- inputs ----
@@ -182,10 +177,10 @@ void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
   const double stamp = msg->header.stamp.toSec();
   if (std::isfinite(msg->spool_position)) spool_stamp_ = stamp;
   push(InputStream::kValve, {stamp, msg->voltage, msg->spool_position});
-  if (!sweep_.running()) return;
-  sweep_.addValveSample(stamp, msg->voltage, msg->spool_position);
-  if (sweep_.points().size() != published_points_) publishFrequencyResponse();
-  if (!sweep_.running()) finishSweep();
+  if (experiments_.running() != ValveExperiments::Kind::kSweep) return;
+  experiments_.addValveSample(stamp, msg->voltage, msg->spool_position);
+  if (experiments_.sweep().points().size() != published_points_) publishFrequencyResponse();
+  if (!experiments_.sweep().running()) finishSweep();
 }
 
 void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
@@ -221,11 +216,10 @@ void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdenti
                                       const std::optional<LiveRanking>& ranking) {
   if (ranking) publishRanking(*ranking);
   analyzeStepTest(g.t);
-  // One experiment on the valve at a time: a sweep and a step test refuse each other, and either pauses the
-  // feed-forward (its command would add to the experiment's on the cell controller's adder).
-  const std::string experiment = sweep_.running() ? "a valve sweep" : (step_test_.running() ? "a step test" : "");
+  // The feed-forward pauses while an experiment holds the valve (its command would add to the experiment's
+  // on the cell controller's adder).
   feed_forward_->update(g, identifier.model(), identifier.physicalParameters(), live_->monitor().estimatorStarted(),
-                        last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr, experiment);
+                        last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr, experiments_.holder());
 }
 
 void IdentificationNode::onIdentificationStep(const HydraulicIdentifier& identifier) {
@@ -307,11 +301,11 @@ bool IdentificationNode::startStepTest(StartStepTest::Request& req, StartStepTes
   request.duration = req.duration;
   request.settle = req.settle;
   const double now = ros::Time::now().toSec();
-  const std::string refusal = sweep_.running() ? std::string("a sweep is running")
-                                               : step_test_.start(request, now, plantCondition(now));
+  const std::string refusal = experiments_.startStepTest(request, now, plantCondition(now));
+  const ValveStepTest& test = experiments_.stepTest();
   res.success = refusal.empty();
-  res.message = res.success ? formatted("step test started: %g V", step_test_.request().step) +
-                                  formatted(" from %g V", step_test_.request().offset)
+  res.message = res.success ? formatted("step test started: %g V", test.request().step) +
+                                  formatted(" from %g V", test.request().offset)
                             : "step test refused: " + refusal;
   if (!res.success) {
     ROS_WARN("die_cushion_ident: %s", res.message.c_str());
@@ -319,25 +313,23 @@ bool IdentificationNode::startStepTest(StartStepTest::Request& req, StartStepTes
   }
   step_status_ = "running";
   step_failed_ = false;
-  step_timer_ = nh_.createTimer(ros::Duration(0.5 * limits_.command_period), &IdentificationNode::onStepTimer, this);
+  step_test_reported_ = false;
+  startExperimentTimer();
   ROS_INFO("die_cushion_ident: %s", res.message.c_str());
   return true;
 }
 
-void IdentificationNode::onStepTimer(const ros::TimerEvent&) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const double now = ros::Time::now().toSec();
-  step_test_.supervise(now, plantCondition(now));
-  if (const auto u = step_test_.command(now)) publishSweepCommand(*u);
-  if (step_test_.running()) return;
-  step_timer_.stop();
-  if (step_test_.state() == ValveStepTest::State::kAborted) {
+void IdentificationNode::stepTestEnded() {
+  if (step_test_reported_ || experiments_.stepTest().running()) return;
+  step_test_reported_ = true;
+  const ValveStepTest& test = experiments_.stepTest();
+  if (test.state() == ValveStepTest::State::kAborted) {
     step_failed_ = true;
-    step_status_ = "aborted: " + step_test_.abortReason();
+    step_status_ = "aborted: " + test.abortReason();
     ROS_WARN("die_cushion_ident: step test %s", step_status_.c_str());
   } else {
     step_status_ = "finished; timing the pressure's answer";
-    step_analysis_due_ = step_test_.stepTime() + step_test_.request().duration + 0.2;
+    step_analysis_due_ = test.stepTime() + test.request().duration + 0.2;
   }
 }
 
@@ -346,7 +338,7 @@ void IdentificationNode::analyzeStepTest(double grid_time) {
   step_analysis_due_ = std::numeric_limits<double>::infinity();
   const std::vector<GridSample> grid(live_->monitor().window().begin(), live_->monitor().window().end());
   for (const StepResponse& r : findStepResponses(grid)) {
-    if (std::abs(r.start - step_test_.stepTime()) > 0.05) continue;
+    if (std::abs(r.start - experiments_.stepTest().stepTime()) > 0.05) continue;
     last_step_response_ = r;
     step_failed_ = false;
     step_status_ = formatted("t63 %.1f ms", r.t63 * 1e3);
@@ -384,18 +376,24 @@ PlantCondition IdentificationNode::plantCondition(double now) const {
   return c;
 }
 
-void IdentificationNode::onSweepTimer(const ros::TimerEvent&) {
+void IdentificationNode::startExperimentTimer() {
+  // Commands at twice the valve rate, so that every valve update finds a fresh one despite scheduling jitter.
+  experiment_timer_ =
+      nh_.createTimer(ros::Duration(0.5 * limits_.command_period), &IdentificationNode::onExperimentTimer, this);
+  experiment_commanding_ = true;
+}
+
+void IdentificationNode::onExperimentTimer(const ros::TimerEvent&) {
   std::lock_guard<std::mutex> lock(mutex_);
   const double now = ros::Time::now().toSec();
-  sweep_.supervise(now, plantCondition(now));
-  const auto u = sweep_.command(now);
-  if (u) publishSweepCommand(*u);
-  if (!sweep_.running()) {
-    finishSweep();
-    if (!u) {  // the offset has been sent
-      sweep_timer_.stop();
-      sweep_commanding_ = false;
-    }
+  experiments_.supervise(now, plantCondition(now));
+  if (const auto u = experiments_.command(now)) publishSweepCommand(*u);
+  if (experiments_.running() != ValveExperiments::Kind::kNone) return;
+  if (!sweep_reported_) finishSweep();
+  stepTestEnded();
+  if (!experiments_.holdsValve()) {  // the offset has been sent
+    experiment_timer_.stop();
+    experiment_commanding_ = false;
   }
 }
 
@@ -408,20 +406,22 @@ void IdentificationNode::publishSweepCommand(double voltage) {
 }
 
 void IdentificationNode::publishFrequencyResponse() {
-  published_points_ = sweep_.points().size();
-  response_pub_.publish(toFrequencyResponseMsg(sweep_.points(), sweep_.fit(), sweepStateName(sweep_.state()),
-                                               ros::Time::now()));
+  const ValveSweep& sweep = experiments_.sweep();
+  published_points_ = sweep.points().size();
+  response_pub_.publish(
+      toFrequencyResponseMsg(sweep.points(), sweep.fit(), sweepStateName(sweep.state()), ros::Time::now()));
 }
 
 void IdentificationNode::finishSweep() {
   if (sweep_reported_) return;
   sweep_reported_ = true;
   publishFrequencyResponse();
-  const ServoValveFit& fit = sweep_.fit();
+  const ValveSweep& sweep = experiments_.sweep();
+  const ServoValveFit& fit = sweep.fit();
   ValveModel msg = toValveModelMsg(fit, ros::Time::now());
-  if (sweep_.state() == ValveSweep::State::kAborted) {
+  if (sweep.state() == ValveSweep::State::kAborted) {
     msg.success = false;
-    msg.message = "sweep aborted: " + sweep_.abortReason();
+    msg.message = "sweep aborted: " + sweep.abortReason();
     ROS_WARN("die_cushion_ident: %s", msg.message.c_str());
   } else {
     if (fit.success) {
@@ -448,42 +448,29 @@ bool IdentificationNode::startSweep(StartSweep::Request& req, StartSweep::Respon
   if (req.settle_periods != 0.0) request.settle_periods = req.settle_periods;
   if (req.integration_periods != 0.0) request.integration_periods = req.integration_periods;
   const double now = ros::Time::now().toSec();
-  const std::string refusal = step_test_.running() ? std::string("a step test is running")
-                                                    : sweep_.start(request, now, plantCondition(now));
+  const std::string refusal = experiments_.startSweep(request, now, plantCondition(now));
   res.success = refusal.empty();
   if (!res.success) {
     res.message = "sweep refused: " + refusal;
     ROS_WARN("die_cushion_ident: %s", res.message.c_str());
     return true;
   }
-  res.expected_duration = sweep_.request().totalDuration();
+  res.expected_duration = experiments_.sweep().request().totalDuration();
   res.message = "sweep started: " + std::to_string(request.frequencies.size()) + " frequencies, about " +
                 formatted("%.1f", res.expected_duration) + " s";
   sweep_reported_ = false;
   published_points_ = 0;
-  // Commands at twice the valve rate, so that every valve update finds a fresh one despite scheduling jitter.
-  sweep_timer_ =
-      nh_.createTimer(ros::Duration(0.5 * limits_.command_period), &IdentificationNode::onSweepTimer, this);
-  sweep_commanding_ = true;
+  startExperimentTimer();
   ROS_INFO("die_cushion_ident: %s", res.message.c_str());
   return true;
 }
 
 bool IdentificationNode::abortSweep(AbortSweep::Request&, AbortSweep::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (step_test_.running()) {
-    step_test_.abort("aborted by request (~abort_sweep)");
-    res.success = true;
-    res.message = "step test aborted; the valve command returns to " + formatted("%g V", step_test_.request().offset);
-    return true;
-  }
-  res.success = sweep_.running();
-  if (!res.success) {
-    res.message = "no sweep is running";
-    return true;
-  }
-  sweep_.abort("aborted by request (~abort_sweep)");
-  res.message = "sweep aborted; the valve command returns to " + formatted("%g V", sweep_.request().offset);
+  // Whichever experiment holds the valve: the sweep or the step test.
+  res.message = experiments_.abort("aborted by request (~abort_sweep)");
+  res.success = !res.message.empty();
+  if (!res.success) res.message = "no sweep or step test is running";
   return true;
 }
 
@@ -540,7 +527,12 @@ void IdentificationNode::diagnoseEstimator(diagnostic_updater::DiagnosticStatusW
 
 void IdentificationNode::diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status) {
   std::lock_guard<std::mutex> lock(mutex_);
-  fill(status, valveHealth(sweep_, live_->config().valve, last_valve_fit_));
+  fill(status, valveHealth(experiments_.sweep(), live_->config().valve, last_valve_fit_));
+}
+
+void IdentificationNode::diagnoseExperiments(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  fill(status, valveExperimentsHealth(experiments_, feed_forward_->engaged(), ros::Time::now().toSec()));
 }
 
 void IdentificationNode::diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status) {

@@ -24,8 +24,7 @@
 #include "die_cushion_ident/core/monitoring/health_report.h"
 #include "die_cushion_ident/core/monitoring/live_identification.h"
 #include "die_cushion_ident/core/valve/step_response.h"
-#include "die_cushion_ident/core/valve/valve_step_test.h"
-#include "die_cushion_ident/core/valve/valve_sweep.h"
+#include "die_cushion_ident/core/valve/valve_experiments.h"
 #include "die_cushion_ident/core/signal/velocity_from_position.h"
 #include "feed_forward_publisher.h"
 #include "message_conversions.h"
@@ -56,7 +55,9 @@ class IdentificationNode {
                     const std::optional<LiveRanking>& ranking);
   void onIdentificationStep(const HydraulicIdentifier& identifier);
 
-  void onSweepTimer(const ros::TimerEvent&);
+  /// Supervises the experiment that holds the valve and sends its command; stops once it handed back.
+  void onExperimentTimer(const ros::TimerEvent&);
+  void startExperimentTimer();
   void publishSweepCommand(double voltage);
   void publishFrequencyResponse();
   void finishSweep();
@@ -65,7 +66,8 @@ class IdentificationNode {
   bool startSweep(StartSweep::Request& request, StartSweep::Response& response);
   bool abortSweep(AbortSweep::Request& request, AbortSweep::Response& response);
   bool startStepTest(StartStepTest::Request& request, StartStepTest::Response& response);
-  void onStepTimer(const ros::TimerEvent&);
+  /// The step test's end: its status, and when to time the pressure's answer.
+  void stepTestEnded();
   /// Times the pressure's answer once the grid holds the whole step (findStepResponses on the window).
   void analyzeStepTest(double grid_time);
   void diagnoseStepTest(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -77,6 +79,7 @@ class IdentificationNode {
   void diagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& status, InputStream stream);
   void diagnoseEstimator(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseValve(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void diagnoseExperiments(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseAdequacy(diagnostic_updater::DiagnosticStatusWrapper& status);
   void diagnoseTiming(diagnostic_updater::DiagnosticStatusWrapper& status);
 
@@ -88,12 +91,12 @@ class IdentificationNode {
   // The identification, model comparison, ranking, settings survey and clock offsets, free of ROS.
   std::unique_ptr<LiveIdentification> live_;
   std::uint64_t generation_ = 0;  // live_'s pipeline generation the feed-forward has seen
-  ValveSweep sweep_;
-  ros::Timer sweep_timer_;
-  bool sweep_commanding_ = false;  // the sweep timer runs (until the offset has been sent)
+  // The sweep and the step test, one at a time, behind the same interlocks; the feed-forward pauses for them.
+  ValveExperiments experiments_{SweepLimits()};
+  ros::Timer experiment_timer_;
+  bool experiment_commanding_ = false;  // the timer runs (until the experiment handed the valve back)
   ServoValveFit last_valve_fit_;
-  ValveStepTest step_test_{SweepLimits()};
-  ros::Timer step_timer_;
+  bool step_test_reported_ = true;  // the ended step test's status is set
   double step_analysis_due_ = std::numeric_limits<double>::infinity();  // grid time to time the answer
   std::optional<StepResponse> last_step_response_;
   std::string step_status_ = "no step test run (~start_step_test)";

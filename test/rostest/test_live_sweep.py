@@ -61,7 +61,7 @@ class LiveSweep(unittest.TestCase):
         self.assertGreater(started.expected_duration, 5.0)
         again = self.request()
         self.assertFalse(again.success)
-        self.assertIn("already running", again.message)
+        self.assertIn("a valve sweep holds the valve", again.message)  # one experiment at a time
         model = self.wait_for_model(1, started.expected_duration + 20.0)
         self.assertTrue(model.success, model.message)
         truth = self.truth

@@ -1,7 +1,9 @@
 #!/usr/bin/python3
 """~start_step_test live: refused for a step beyond sweep_max_amplitude; run at rest with the command
-back at the offset afterwards; the node's t63 (step test diagnostic) within 10 % of the t63 this test
-computes on its own from the raw pressure messages."""
+back at the offset afterwards; while it runs a sweep is refused (one valve experiment at a time) and the
+'valve experiments' diagnostic names what holds the valve and why the sweep was refused; the node's t63
+(step test diagnostic) within 10 % of the t63 this test computes on its own from the raw pressure
+messages."""
 import threading
 import time
 import unittest
@@ -11,7 +13,7 @@ import rostest
 from sensor_msgs.msg import FluidPressure
 
 from die_cushion_ident.msg import ValveSignal
-from die_cushion_ident.srv import StartStepTest
+from die_cushion_ident.srv import StartStepTest, StartSweep
 from rostest_helpers import Diagnostics, values_of, wait_for, wait_for_clock
 
 NS = "/die_cushion/ident/"
@@ -29,6 +31,7 @@ class StepTestLive(unittest.TestCase):
         rospy.Subscriber("/die_cushion/valve_command", ValveSignal, cls._on_command, queue_size=10000)
         rospy.wait_for_service(NS + "start_step_test", timeout=60)
         cls.start = rospy.ServiceProxy(NS + "start_step_test", StartStepTest)
+        cls.sweep = rospy.ServiceProxy(NS + "start_sweep", StartSweep)
 
     @classmethod
     def _on_pressure(cls, msg):
@@ -52,6 +55,12 @@ class StepTestLive(unittest.TestCase):
 
         started = self.start(offset=0.0, step=-0.5, duration=1.5, settle=0.3)
         self.assertTrue(started.success, started.message)
+        sweep = self.sweep(offset=0.0)
+        self.assertFalse(sweep.success, "a sweep while the step test holds the valve")
+        self.assertIn("a step test holds the valve", sweep.message)
+        wait_for(lambda: (self.diagnostics.get(NS, "valve experiments") is not None and
+                          "valve sweep refused" in values_of(self.diagnostics.get(NS, "valve experiments"))
+                          .get("last refusal", "")), 10.0, "the refusal in the 'valve experiments' diagnostic")
         wait_for(lambda: self.diagnostic() is not None and "t63" in self.diagnostic().message, 15.0,
                  "the node's t63")
         with self.lock:

@@ -131,6 +131,27 @@ HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& v,
   return r;
 }
 
+HealthReport valveExperimentsHealth(const ValveExperiments& experiments, bool feed_forward_engaged, double now) {
+  HealthReport r;
+  const std::string holder = experiments.holder();
+  r.add("running", holder.empty() ? "none" : holder);
+  r.add("feed-forward", !feed_forward_engaged ? "not engaged"
+                        : holder.empty()      ? "engaged"
+                                              : "paused while " + holder + " holds the valve");
+  r.add("last refusal", experiments.lastRefusal().empty() ? "none" : experiments.lastRefusal());
+  r.add("last ended", experiments.lastEnd().empty() ? "none" : experiments.lastEnd());
+  const double since_refusal = now - experiments.lastRefusalTime();
+  if (!holder.empty()) {
+    r.summary(HealthLevel::kOk, holder + " holds the valve");
+  } else if (since_refusal >= 0.0 && since_refusal < kRecentRefusal) {
+    // A cell controller that asked for an experiment learns here why it did not run.
+    r.summary(HealthLevel::kWarn, experiments.lastRefusal());
+  } else {
+    r.summary(HealthLevel::kOk, "no valve experiment runs");
+  }
+  return r;
+}
+
 HealthReport adequacyHealth(const LiveModelMonitor& m, double equation_error_rms, double warn_error,
                             double error_error) {
   HealthReport r;

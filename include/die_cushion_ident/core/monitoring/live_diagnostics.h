@@ -11,6 +11,8 @@
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/valve/step_response.h"
+#include "die_cushion_ident/core/valve/valve_experiments.h"
+#include "die_cushion_ident/core/valve/valve_experiments.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 
 namespace die_cushion_ident {
@@ -55,6 +57,12 @@ HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimat
 /// The sweep's progress, or the valve model in use and how well the last sweep's fit explains its points.
 HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& model_in_use,
                          const ServoValveFit& last_fit);
+
+/// [s] how long a refused valve experiment keeps the experiments' diagnostic at WARN.
+constexpr double kRecentRefusal = 30.0;
+/// Which valve experiment holds the valve (and so pauses the feed-forward), the last refusal and why, and
+/// how the last one ended; WARN for kRecentRefusal after a refusal.
+HealthReport valveExperimentsHealth(const ValveExperiments& experiments, bool feed_forward_engaged, double now);
 
 /// The free-run error overall and per stroke phase against the warn / error limits [Pa], the live ranking's
 /// conclusion, and why nothing is compared yet when nothing is.
