@@ -99,7 +99,7 @@ TEST(AnalyzeTrend, BadArgumentsGetExitTwoWithAReason) {
   EXPECT_NE(r.output.find("no such bag"), std::string::npos) << r.output;
   r = run(kTools + "/analyze_trend " + kWork + " --out " + kWork + "/x --jobs 0");
   EXPECT_EQ(r.status, 2);
-  r = run(kTools + "/analyze_trend " + kWork + " --out " + kWork + "/x --false-alarm-rate 2");
+  r = run(kTools + "/analyze_trend " + kWork + " --out " + kWork + "/x --false-alarms-per-year 0");
   EXPECT_EQ(r.status, 2);
   std::system(("mkdir -p " + kWork + "/empty").c_str());
   r = run(kTools + "/analyze_trend " + kWork + "/empty --out " + kWork + "/x");

@@ -1,6 +1,6 @@
 // Condition monitoring over many recordings (issue 14):
 //   rosrun die_cushion_ident analyze_trend BAG_OR_DIR... --out DIR [--config FILE] [--effects a,b] [--jobs N]
-//                                          [--false-alarm-rate A] [--quiet]
+//                                          [--false-alarms-per-year F] [--recordings-per-year R] [--quiet]
 // Analyses every bag with analyze_bag (side by side, one thread each), keeps each bag's summary.yaml under
 // DIR/bags/ and reuses it while the bag and the settings are unchanged, then writes DIR/trend.csv (a row per
 // recording) and DIR/trend.yaml (the changes found: doc/condition_monitoring.md).
@@ -38,7 +38,7 @@ namespace {
 
 const char* const kUsage =
     "usage: analyze_trend BAG_OR_DIR... --out DIR [--config FILE.yaml] [--effects a,b] [--jobs N]\n"
-    "                     [--false-alarm-rate A] [--quiet]\n"
+    "                     [--false-alarms-per-year F] [--recordings-per-year R] [--quiet]\n"
     "  Analyses every bag (directories: every *.bag below them) with analyze_bag, N side by side (default:\n"
     "  one per core), keeps each result in DIR/bags/ and reuses it while the bag and the settings are\n"
     "  unchanged, and writes DIR/trend.csv (one row per recording) and DIR/trend.yaml (the changes found\n"
@@ -53,7 +53,8 @@ struct Options {
   std::string effects;
   bool effects_given = false;
   int jobs = 0;
-  double false_alarm_rate = 0.01;
+  double false_alarms_per_year = 0.1;  // over all parameters of a press
+  double recordings_per_year = 750.0;  // one per shift, three shifts, 250 days
   bool quiet = false;
 };
 
@@ -73,7 +74,8 @@ Options parseArguments(int argc, char** argv) {
                 o.effects_given = true;
               })
       .wholeNumber("--jobs", 1, 256, &o.jobs)
-      .number("--false-alarm-rate", 1e-9, 0.5, &o.false_alarm_rate)
+      .number("--false-alarms-per-year", 1e-6, 100.0, &o.false_alarms_per_year)
+      .number("--recordings-per-year", 1.0, 1e7, &o.recordings_per_year)
       .flag("--quiet", [&] { o.quiet = true; })
       .positional("bags or directories", std::numeric_limits<int>::max(),
                   [&](const std::string& v) { o.inputs.push_back(v); });
@@ -340,12 +342,17 @@ int run(int argc, char** argv) {
   }
   writeCsv(o.out + "/trend.csv", rows, names, effects, config_name);
 
-  // Changes: the run's false-alarm rate shared by every parameter tested.
-  ChangeDetectionOptions detection;
-  detection.false_alarm_rate = o.false_alarm_rate / std::max<std::size_t>(1, names.size());
+  // Changes: a sequential test per parameter (each recording tested once, when it arrives), designed for
+  // the false alarms per press-year allowed, shared by every parameter tested.
+  SequentialDetectionOptions detection;
+  detection.recordings_between_false_alarms =
+      o.recordings_per_year * static_cast<double>(std::max<std::size_t>(1, names.size())) / o.false_alarms_per_year;
   yaml << YAML::Key << "recordings" << YAML::Value << rows.size();
   yaml << YAML::Key << "analysed_now" << YAML::Value << pending.size();
-  yaml << YAML::Key << "false_alarm_rate" << YAML::Value << o.false_alarm_rate;
+  yaml << YAML::Key << "false_alarms_per_year" << YAML::Value << o.false_alarms_per_year;
+  yaml << YAML::Key << "recordings_per_year" << YAML::Value << o.recordings_per_year;
+  yaml << YAML::Key << "recordings_between_false_alarms" << YAML::Value << detection.recordings_between_false_alarms;
+  yaml << YAML::Key << "cusum_threshold" << YAML::Value << cusumThreshold(detection);
   yaml << YAML::Key << "changes" << YAML::Value << YAML::BeginSeq;
   int changes = 0;
   for (const auto& name : names) {
@@ -355,19 +362,20 @@ int run(int argc, char** argv) {
         if (p.name == name) series.push_back({r.start, p.value, p.std});
       }
     }
-    const auto change = detectParameterChange(series, detection);
-    if (!change) continue;
-    const std::string start = isoTime(change->start_stamp);
-    const std::string words = explainChange(name, units[name], *change, start.substr(0, 10));
-    yaml << YAML::Flow << YAML::BeginMap;
-    yaml << YAML::Key << "parameter" << YAML::Value << name << YAML::Key << "shape" << YAML::Value << change->shape;
-    yaml << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start;
-    yaml << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", change->start_stamp);
-    yaml << YAML::Key << "before" << YAML::Value << change->before << YAML::Key << "after" << YAML::Value
-         << change->after << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
-    yaml << YAML::Key << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
-    log("change: " + words);
-    ++changes;
+    for (const ParameterChange& change : detectChangesSequentially(series, detection)) {
+      const std::string start = isoTime(change.start_stamp);
+      const std::string words = explainChange(name, units[name], change, start.substr(0, 10));
+      yaml << YAML::Flow << YAML::BeginMap;
+      yaml << YAML::Key << "parameter" << YAML::Value << name << YAML::Key << "shape" << YAML::Value << change.shape;
+      yaml << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start;
+      yaml << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", change.start_stamp);
+      yaml << YAML::Key << "alarm" << YAML::Value << YAML::DoubleQuoted << isoTime(change.alarm_stamp);
+      yaml << YAML::Key << "before" << YAML::Value << change.before << YAML::Key << "after" << YAML::Value
+           << change.after << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
+      yaml << YAML::Key << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
+      log("change: " + words);
+      ++changes;
+    }
   }
   // A verdict change: an effect `missing` in the last recordings (at least 2 in a row) after at least 3
   // recordings where it was not. In a list of its own: `changes` keeps the contract's entry shape

@@ -1,11 +1,14 @@
 #include "die_cushion_ident/core/analysis/parameter_trend.h"
 
-#include <boost/math/distributions/fisher_f.hpp>
-
+#include <Eigen/Dense>
 #include <algorithm>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <ctime>
+#include <limits>
 #include <map>
+#include <mutex>
 
 #include "die_cushion_ident/core/util/formatted.h"
 
@@ -13,112 +16,196 @@ namespace die_cushion_ident {
 
 namespace {
 
-constexpr double kMedianChiSquare1 = 0.45493642311957283;  // median of chi-square with 1 degree of freedom
-
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+// The ramp's least-squares slope over the points [begin, end) against their index, and whether a line fits
+// them much better than their mean (the change's shape).
+bool rampFitsBetter(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
+  const std::size_t n = end - begin;
+  if (n < 3) return false;
+  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const double x = static_cast<double>(i - begin);
+    sx += x;
+    sy += p[i].value;
+    sxx += x * x;
+    sxy += x * p[i].value;
+  }
+  const double m = static_cast<double>(n);
+  const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+  const double mean = sy / m, intercept = mean - slope * sx / m;
+  double level = 0.0, line = 0.0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const double x = static_cast<double>(i - begin);
+    level += (p[i].value - mean) * (p[i].value - mean);
+    line += (p[i].value - intercept - slope * x) * (p[i].value - intercept - slope * x);
+  }
+  return line < 0.25 * level;
 }
 
-// The variance between recordings that the stds do not explain, from the second differences
-// e_i = x_i - 2 x_{i-1} + x_{i-2}: var e_i = v_i + 4 v_{i-1} + v_{i-2} with v = std^2 + tau^2, so
-// tau^2 = (median e^2 / median chi2_1 - median(std_i^2 + 4 std_{i-1}^2 + std_{i-2}^2)) / 6. A ramp cancels
-// in e; a step disturbs two of them, which the medians ignore.
-double dayToDayVariance(const std::vector<TrendPoint>& s) {
-  std::vector<double> squares, explained;
-  for (std::size_t i = 2; i < s.size(); ++i) {
-    const double e = s[i].value - 2.0 * s[i - 1].value + s[i - 2].value;
-    squares.push_back(e * e);
-    explained.push_back(s[i].std * s[i].std + 4.0 * s[i - 1].std * s[i - 1].std + s[i - 2].std * s[i - 2].std);
+// The least-squares line through the points [begin, end) against their index, at the last of them.
+double lineEnd(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
+  const std::size_t n = end - begin;
+  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const double x = static_cast<double>(i - begin);
+    sx += x;
+    sy += p[i].value;
+    sxx += x * x;
+    sxy += x * p[i].value;
   }
-  if (squares.empty()) return 0.0;
-  return std::max(0.0, (median(squares) / kMedianChiSquare1 - median(explained)) / 6.0);
+  const double m = static_cast<double>(n);
+  const double denominator = m * sxx - sx * sx;
+  if (!(denominator > 0.0)) return sy / m;
+  const double slope = (m * sxy - sx * sy) / denominator;
+  return (sy - slope * sx) / m + slope * static_cast<double>(n - 1);
 }
 
-// Weighted least squares of x on the columns (1, h): the residual sum of squares and the coefficients.
-struct LineFit {
-  double rss = 0.0, intercept = 0.0, slope = 0.0;
-};
-
-LineFit fitLine(const std::vector<double>& x, const std::vector<double>& h, const std::vector<double>& w) {
-  double sw = 0, sh = 0, shh = 0, sx = 0, shx = 0;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    sw += w[i];
-    sh += w[i] * h[i];
-    shh += w[i] * h[i] * h[i];
-    sx += w[i] * x[i];
-    shx += w[i] * h[i] * x[i];
-  }
-  LineFit f;
-  const double det = sw * shh - sh * sh;
-  if (det > 0.0) {
-    f.slope = (sw * shx - sh * sx) / det;
-    f.intercept = (sx - f.slope * sh) / sw;
-  } else {
-    f.intercept = sx / sw;
-  }
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const double r = x[i] - f.intercept - f.slope * h[i];
-    f.rss += w[i] * r * r;
-  }
-  return f;
+double meanOf(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
+  double sum = 0.0;
+  for (std::size_t i = begin; i < end; ++i) sum += p[i].value;
+  return end > begin ? sum / static_cast<double>(end - begin) : std::numeric_limits<double>::quiet_NaN();
 }
 
 }  // namespace
 
-std::optional<ParameterChange> detectParameterChange(const std::vector<TrendPoint>& series,
-                                                     const ChangeDetectionOptions& options) {
-  const std::size_t n = series.size();
-  const std::size_t first_change = static_cast<std::size_t>(std::max(options.min_baseline, 2));
-  if (n < first_change + 3) return std::nullopt;
-  for (const auto& p : series) {
-    if (!std::isfinite(p.stamp) || !std::isfinite(p.value) || !(p.std >= 0.0) || !std::isfinite(p.std)) {
-      return std::nullopt;
+double cusumRunLength(double threshold, double reference) {
+  // Brook and Evans's Markov chain: state 0 is S = 0, state i the cell around i w, w = h / (N - 1/2); the
+  // run length from each state solves (I - P) L = 1.
+  constexpr int kStates = 240;
+  const double w = threshold / (kStates - 0.5);
+  const boost::math::normal normal;
+  Eigen::MatrixXd transitions(kStates, kStates);
+  for (int i = 0; i < kStates; ++i) {
+    const double from = i * w;
+    transitions(i, 0) = boost::math::cdf(normal, 0.5 * w - from + reference);
+    for (int j = 1; j < kStates; ++j) {
+      transitions(i, j) = boost::math::cdf(normal, (j + 0.5) * w - from + reference) -
+                          boost::math::cdf(normal, (j - 0.5) * w - from + reference);
     }
   }
-  const double tau2 = dayToDayVariance(series);
-  std::vector<double> x(n), w(n), flat(n, 0.0);
-  for (std::size_t i = 0; i < n; ++i) {
-    x[i] = series[i].value;
-    const double variance = series[i].std * series[i].std + tau2;
-    if (!(variance > 0.0)) return std::nullopt;  // identical values with zero stds: nothing to test
-    w[i] = 1.0 / variance;
+  const Eigen::MatrixXd system = Eigen::MatrixXd::Identity(kStates, kStates) - transitions;
+  const Eigen::VectorXd lengths = system.partialPivLu().solve(Eigen::VectorXd::Ones(kStates));
+  return lengths(0);
+}
+
+double cusumThreshold(const SequentialDetectionOptions& options) {
+  const double k = 0.5 * options.shift;
+  const double target = std::max(options.recordings_between_false_alarms, 2.0);
+  // Solved once per design (a detector per parameter and series asks again).
+  static std::mutex mutex;
+  static std::map<std::pair<double, double>, double> designed;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (const auto it = designed.find({k, target}); it != designed.end()) return it->second;
+  // Two symmetric sides alarm twice as often as one: each side needs twice the run length.
+  double low = 0.0, high = 30.0;
+  for (int i = 0; i < 30; ++i) {
+    const double h = 0.5 * (low + high);
+    (cusumRunLength(h, k) < 2.0 * target ? low : high) = h;
   }
-  const double rss0 = fitLine(x, flat, w).rss;
+  return designed[{k, target}] = 0.5 * (low + high);
+}
 
-  const std::size_t change_points = n - first_change;
-  const double tests = 2.0 * static_cast<double>(change_points);
-  // tau^2 comes from only n - 2 second differences, through a median (about 64 % efficient): the
-  // statistic is then F(1, nu) rather than chi-square(1), which keeps short series from false alarms.
-  const double nu = std::max(2.0, std::floor(0.64 * static_cast<double>(n - 2)));
-  const boost::math::fisher_f_distribution<double> f(1.0, nu);
-  const double threshold = boost::math::quantile(boost::math::complement(f, options.false_alarm_rate / tests));
+SelfStartingCusum::SelfStartingCusum(const SequentialDetectionOptions& options)
+    : options_(options), threshold_(cusumThreshold(options)), reference_(0.5 * options.shift) {}
 
-  std::optional<ParameterChange> best;
-  std::vector<double> h(n);
-  for (std::size_t k = first_change; k < n; ++k) {
-    for (const char* shape : {"step", "drift"}) {
-      const bool step = std::string(shape) == "step";
-      for (std::size_t i = 0; i < n; ++i) {
-        h[i] = i < k ? 0.0 : (step ? 1.0 : series[i].stamp - series[k - 1].stamp);
-      }
-      const LineFit fit = fitLine(x, h, w);
-      const double statistic = rss0 - fit.rss;
-      if (!(statistic > threshold) || (best && statistic <= best->statistic)) continue;
-      ParameterChange c;
-      c.shape = shape;
-      c.start_index = k;
-      c.start_stamp = series[k].stamp;
-      c.before = fit.intercept;
-      c.after = fit.intercept + fit.slope * h[n - 1];
-      c.statistic = statistic;
-      c.threshold = threshold;
-      c.day_to_day_std = std::sqrt(tau2);
-      best = c;
+void SelfStartingCusum::restartFrom(std::size_t first) {
+  baseline_begin_ = first;
+  high_ = low_ = 0.0;
+  high_start_ = low_start_ = points_.size();
+}
+
+std::optional<ParameterChange> SelfStartingCusum::add(const TrendPoint& point) {
+  if (!std::isfinite(point.value) || !std::isfinite(point.stamp)) return std::nullopt;
+  // The in-control recordings before this one: their mean and scatter (Welford), and their reported
+  // variances' mean.
+  const std::size_t m = points_.size() - baseline_begin_;
+  double mean = 0.0, squares = 0.0, reported = 0.0;
+  for (std::size_t i = baseline_begin_, j = 1; i < points_.size(); ++i, ++j) {
+    const double delta = points_[i].value - mean;
+    mean += delta / static_cast<double>(j);
+    squares += delta * (points_[i].value - mean);
+    reported += points_[i].std * points_[i].std;
+  }
+  points_.push_back(point);
+  const std::size_t index = points_.size() - 1;
+  if (m < static_cast<std::size_t>(std::max(options_.warm_up, 3))) {
+    high_start_ = low_start_ = index + 1;
+    return std::nullopt;
+  }
+  const double scatter2 = squares / static_cast<double>(m - 1);
+  if (!(scatter2 > 0.0)) return std::nullopt;  // identical values: nothing to standardise against
+  // Recordings differ in length and so in their reported std: the scatter is the day-to-day variance tau^2
+  // (what the stds miss) plus their mean variance, and this recording's own is tau^2 plus its std^2. With
+  // the baseline's scatter alone, stds varying 3-fold gave one false alarm per 321 recordings instead of the
+  // designed 500.
+  const double own = point.std >= 0.0 && std::isfinite(point.std) ? point.std * point.std : 0.0;
+  const double day_to_day = std::max(0.0, scatter2 - reported / static_cast<double>(m));
+  const double variance = std::max(day_to_day + own, 1e-6 * scatter2) + scatter2 / static_cast<double>(m);
+  const double t = (point.value - mean) / std::sqrt(variance);
+  const boost::math::students_t student(static_cast<double>(m - 1));
+  // Far in the tails the t distribution's cdf rounds to 0 or 1: its complement keeps the precision there.
+  const double upper = boost::math::cdf(boost::math::complement(student, std::abs(t)));
+  const boost::math::normal normal;
+  const double z = upper > 0.0 ? boost::math::quantile(boost::math::complement(normal, upper)) : 38.0;
+  const double u = t >= 0.0 ? z : -z;
+  if (high_ == 0.0) high_start_ = index;
+  if (low_ == 0.0) low_start_ = index;
+  high_ = std::max(0.0, high_ + u - reference_);
+  low_ = std::max(0.0, low_ - u - reference_);
+  if (high_ == 0.0) high_start_ = index + 1;
+  if (low_ == 0.0) low_start_ = index + 1;
+  const bool rise = high_ > threshold_, fall = low_ > threshold_;
+  if (!rise && !fall) return std::nullopt;
+  ParameterChange change;
+  // Dated by maximum likelihood among the recordings since the CUSUM last stood at 0: the split whose later
+  // part's mean lies farthest from the baseline's, weighted by its length (the last zero alone dated a step
+  // one recording early where the one before it happened to lie high).
+  const std::size_t last_zero = std::min(rise ? high_start_ : low_start_, index);
+  const double baseline = meanOf(points_, baseline_begin_, last_zero > baseline_begin_ ? last_zero : index);
+  double best = -1.0;
+  for (std::size_t j = last_zero; j <= index; ++j) {
+    const double d = meanOf(points_, j, index + 1) - baseline;
+    const double score = static_cast<double>(index + 1 - j) * d * d;
+    if (score > best) {
+      best = score;
+      change.start_index = j;
     }
   }
-  return best;
+  change.alarm_index = index;
+  change.alarm_stamp = point.stamp;
+  change.start_stamp = points_[change.start_index].stamp;
+  change.before = meanOf(points_, baseline_begin_, change.start_index);
+  change.after = meanOf(points_, change.start_index, index + 1);
+  change.statistic = rise ? high_ : low_;
+  change.threshold = threshold_;
+  change.shape = rampFitsBetter(points_, change.start_index, index + 1) ? "drift" : "step";
+  // The new regime's baseline starts with the next recording: the ones that raised the alarm are a biased
+  // sample of it (restarted from the change's start, a false alarm was followed by more: one per 404
+  // recordings instead of the designed 500).
+  restartFrom(index + 1);
+  return change;
+}
+
+std::vector<ParameterChange> detectChangesSequentially(const std::vector<TrendPoint>& series,
+                                                       const SequentialDetectionOptions& options) {
+  SelfStartingCusum cusum(options);
+  std::vector<ParameterChange> changes;
+  std::vector<TrendPoint> finite;
+  for (const TrendPoint& p : series) {
+    if (std::isfinite(p.value) && std::isfinite(p.stamp)) finite.push_back(p);
+    if (auto change = cusum.add(p)) changes.push_back(*change);
+  }
+  // Each change described by its whole regime, up to the next change or the newest recording: its shape,
+  // and the level reached (a drift's line at the regime's end). Only the description uses the later
+  // recordings; where and when the change was found does not move.
+  for (std::size_t c = 0; c < changes.size(); ++c) {
+    const std::size_t begin = changes[c].start_index;
+    const std::size_t end = c + 1 < changes.size() ? changes[c + 1].start_index : finite.size();
+    if (end <= begin) continue;
+    const bool drift = rampFitsBetter(finite, begin, end);
+    changes[c].shape = drift ? "drift" : "step";
+    changes[c].after = drift ? lineEnd(finite, begin, end) : meanOf(finite, begin, end);
+  }
+  return changes;
 }
 
 std::string isoTime(double stamp) {
@@ -130,28 +217,35 @@ std::string isoTime(double stamp) {
   return text;
 }
 
-std::string explainChange(const std::string& parameter, const std::string& unit, const ParameterChange& change,
-                          const std::string& since) {
+std::string explainChange(const std::string& parameter, const std::string& unit,
+                          const ParameterChange& change, const std::string& since) {
   // What a rise and a fall of each parameter usually mean on a die cushion.
   static const std::map<std::string, std::pair<const char*, const char*>> kReadings = {
-      {"leakage_conductance", {"a worn piston seal or valve leakage", "a seal replaced or a leak path closed"}},
+      {"leakage_conductance",
+       {"a worn piston seal or valve leakage", "a seal replaced or a leak path closed"}},
       {"bulk_modulus", {"the oil de-aerated or a hose replaced", "air entering the oil or a hose softening"}},
       {"air_volume", {"air entering the oil (a leaking suction line, foaming)", "the oil de-aerated"}},
-      {"dead_volume", {"more oil volume in the circuit (a hose, an accumulator's precharge)",
-                       "less oil volume in the circuit"}},
-      {"valve_flow_gain", {"the valve's metering edges eroding or its amplifier's gain drifting",
-                           "the valve's metering edges silting up or its amplifier's gain drifting"}},
-      {"overlap", {"the spool's control edges covering more (wear of the bushing, a changed offset)",
-                   "the spool's control edges wearing round"}},
+      {"dead_volume",
+       {"more oil volume in the circuit (a hose, an accumulator's precharge)",
+        "less oil volume in the circuit"}},
+      {"valve_flow_gain",
+       {"the valve's metering edges eroding or its amplifier's gain drifting",
+        "the valve's metering edges silting up or its amplifier's gain drifting"}},
+      {"overlap",
+       {"the spool's control edges covering more (wear of the bushing, a changed offset)",
+        "the spool's control edges wearing round"}},
       {"tank_pressure", {"a clogging return filter or return line", "the return line cleared"}},
-      {"natural_frequency", {"the valve responding faster", "the valve slowing (contamination, pilot pressure)"}},
-      {"damping", {"the valve's spool moving less freely (contamination, friction)", "the valve less damped"}},
+      {"natural_frequency",
+       {"the valve responding faster", "the valve slowing (contamination, pilot pressure)"}},
+      {"damping",
+       {"the valve's spool moving less freely (contamination, friction)", "the valve less damped"}},
       {"dead_time", {"the valve or its amplifier answering later", "the valve answering sooner"}},
   };
   const bool rose = change.after > change.before;
   std::string reading = "check what was serviced or changed on the press then";
   for (const auto& [name, words] : kReadings) {
-    if (parameter.size() >= name.size() && parameter.compare(parameter.size() - name.size(), name.size(), name) == 0) {
+    if (parameter.size() >= name.size() &&
+        parameter.compare(parameter.size() - name.size(), name.size(), name) == 0) {
       reading = rose ? words.first : words.second;
     }
   }
