@@ -5,6 +5,15 @@
 namespace die_cushion_ident {
 namespace testing {
 
+PlantCondition plantAtRest() {
+  PlantCondition rest;
+  rest.pressure = 20e5;
+  rest.velocity = 0.0;
+  rest.pressure_age = 0.001;
+  rest.spool_age = 0.001;
+  return rest;
+}
+
 ServoValveParameters randomValve(std::uint64_t seed) {
   std::mt19937_64 rng(seed * 7919 + 17);
   std::uniform_real_distribution<double> unit(0.0, 1.0);

@@ -15,6 +15,10 @@ namespace testing {
 /// gain 0.05-0.2 1/V.
 ServoValveParameters randomValve(std::uint64_t seed);
 
+/// The plant as the valve experiments' interlocks see a cushion at rest: 20 bar, not moving, pressure and
+/// spool 1 ms old.
+PlantCondition plantAtRest();
+
 /// A cushion that stays at rest (the sweep's safe state) with the given valve and spool noise 0.002.
 SimulatorConfig cushionAtRest(const ServoValveParameters& valve, std::uint64_t seed);
 

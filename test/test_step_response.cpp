@@ -12,6 +12,7 @@
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/valve/valve_step_test.h"
 #include "simulation_fixtures.h"
+#include "sweep_fixtures.h"
 
 namespace die_cushion_ident {
 namespace {
@@ -116,11 +117,7 @@ TEST(ValveStepTest, IsRefusedAndAbortedWhereUnsafeAndAlwaysEndsAtTheOffset) {
   SweepLimits limits;
   limits.max_voltage = 4.0;
   limits.min_voltage = -4.0;
-  PlantCondition rest;
-  rest.pressure = 20e5;
-  rest.velocity = 0.0;
-  rest.pressure_age = 0.001;
-  rest.spool_age = 0.001;
+  const PlantCondition rest = testing::plantAtRest();
   StepTestRequest request;
   request.offset = 0.2;
   request.step = -0.5;

@@ -9,18 +9,12 @@
 
 #include "die_cushion_ident/core/monitoring/live_diagnostics.h"
 #include "die_cushion_ident/core/valve/valve_experiments.h"
+#include "sweep_fixtures.h"
 
 namespace die_cushion_ident {
 namespace {
 
-PlantCondition atRest() {
-  PlantCondition rest;
-  rest.pressure = 20e5;
-  rest.velocity = 0.0;
-  rest.pressure_age = 0.001;
-  rest.spool_age = 0.001;
-  return rest;
-}
+PlantCondition atRest() { return testing::plantAtRest(); }
 
 StepTestRequest step(double offset = 0.2) {
   StepTestRequest request;

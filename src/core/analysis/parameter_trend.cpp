@@ -16,11 +16,13 @@ namespace die_cushion_ident {
 
 namespace {
 
-// The ramp's least-squares slope over the points [begin, end) against their index, and whether a line fits
-// them much better than their mean (the change's shape).
-bool rampFitsBetter(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
-  const std::size_t n = end - begin;
-  if (n < 3) return false;
+// The least-squares line through the points [begin, end) against their index (0 at begin).
+struct IndexLine {
+  double intercept = 0.0, slope = 0.0;
+  double at(std::size_t i) const { return intercept + slope * static_cast<double>(i); }
+};
+
+IndexLine fitIndexLine(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
   double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
   for (std::size_t i = begin; i < end; ++i) {
     const double x = static_cast<double>(i - begin);
@@ -29,34 +31,31 @@ bool rampFitsBetter(const std::vector<TrendPoint>& p, std::size_t begin, std::si
     sxx += x * x;
     sxy += x * p[i].value;
   }
-  const double m = static_cast<double>(n);
-  const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
-  const double mean = sy / m, intercept = mean - slope * sx / m;
-  double level = 0.0, line = 0.0;
-  for (std::size_t i = begin; i < end; ++i) {
-    const double x = static_cast<double>(i - begin);
-    level += (p[i].value - mean) * (p[i].value - mean);
-    line += (p[i].value - intercept - slope * x) * (p[i].value - intercept - slope * x);
-  }
-  return line < 0.25 * level;
+  const double m = static_cast<double>(end - begin);
+  const double denominator = m * sxx - sx * sx;
+  IndexLine line;
+  line.slope = denominator > 0.0 ? (m * sxy - sx * sy) / denominator : 0.0;
+  line.intercept = (sy - line.slope * sx) / m;
+  return line;
 }
 
-// The least-squares line through the points [begin, end) against their index, at the last of them.
-double lineEnd(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
-  const std::size_t n = end - begin;
-  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+// Whether a line fits the points [begin, end) much better than their mean (the change's shape).
+bool rampFitsBetter(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
+  if (end < begin + 3) return false;
+  const IndexLine line = fitIndexLine(p, begin, end);
+  double mean = 0.0;
+  for (std::size_t i = begin; i < end; ++i) mean += p[i].value / static_cast<double>(end - begin);
+  double level = 0.0, ramp = 0.0;
   for (std::size_t i = begin; i < end; ++i) {
-    const double x = static_cast<double>(i - begin);
-    sx += x;
-    sy += p[i].value;
-    sxx += x * x;
-    sxy += x * p[i].value;
+    level += (p[i].value - mean) * (p[i].value - mean);
+    ramp += (p[i].value - line.at(i - begin)) * (p[i].value - line.at(i - begin));
   }
-  const double m = static_cast<double>(n);
-  const double denominator = m * sxx - sx * sx;
-  if (!(denominator > 0.0)) return sy / m;
-  const double slope = (m * sxy - sx * sy) / denominator;
-  return (sy - slope * sx) / m + slope * static_cast<double>(n - 1);
+  return ramp < 0.25 * level;
+}
+
+// That line at the last of the points.
+double lineEnd(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
+  return fitIndexLine(p, begin, end).at(end - begin - 1);
 }
 
 double meanOf(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
