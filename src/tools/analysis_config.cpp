@@ -61,7 +61,7 @@ std::vector<std::string> parseAnalysisConfig(const std::string& yaml_text, const
   } catch (const YAML::Exception& e) {
     // A key or value of an unexpected shape (a mapping as a key, a list where a name belongs).
     return {"config file '" + origin + "': unexpected structure (" + e.what() +
-            "); keys must be plain names and values numbers, names or the lists README shows"};
+            "); keys must be plain names and values numbers, names or the lists doc/configuration.md shows"};
   }
 }
 

@@ -15,7 +15,7 @@ struct InputTopics {
   std::string joint_name;  ///< the cushion's joint in the position topic's JointState; "" = the only one
 };
 
-/// Reads an analyze_bag config file (YAML: the configuration keys of README, `effects`, `custom_effects`,
+/// Reads an analyze_bag config file (YAML: the configuration keys of doc/configuration.md, `effects`, `custom_effects`,
 /// `regression_form`, `topics: {pressure, position, valve}`, `joint_name`, `topic_delays: {pressure, position,
 /// valve}`). Returns every problem found ("key: ..."),
 /// including unknown keys (a typo must not silently fall back to a default).

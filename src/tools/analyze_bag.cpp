@@ -42,7 +42,7 @@ const char* kUsage =
     "  DIR/analysis.bag and CSV files. Library effects: leakage, entrained_air, valve_overlap, "
     "tank_pressure.\n"
     "  The config file holds the geometry (piston_area, stroke_length, supply_pressure), any setting of\n"
-    "  README's configuration table, effects, custom_effects and topics: {pressure, position, valve}.\n"
+    "  doc/configuration.md, effects, custom_effects and topics: {pressure, position, valve}.\n"
     "  --propose searches formulas for the error the library leaves even when it is not structured (by\n"
     "  default the search runs only when it is).\n"
     "  The sample period, filter widths and identification period are chosen from the recording's first\n"
@@ -314,7 +314,7 @@ int run(int argc, char** argv) {
   for (const char* key : {"piston_area", "stroke_length", "supply_pressure"}) {
     if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
       warnings.push_back(std::string("geometry key '") + key +
-                         "' not configured: the default of README's configuration table is used");
+                         "' not configured: the default of doc/configuration.md is used");
     }
   }
   {
