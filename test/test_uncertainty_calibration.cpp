@@ -14,6 +14,7 @@
 
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/analysis/parameter_uncertainty.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {
@@ -109,6 +110,36 @@ TEST(ParameterUncertainty, AParameterThatChangesDuringTheRecordingIsFlagged) {
   const auto none = parametersThatVaryOverTheRecording(
       steady_grid, steady_strokes, config, fitOnCycles(steady_grid, steady_strokes, config, INT_MIN, INT_MAX));
   EXPECT_TRUE(none.empty()) << none.front();
+}
+
+// The reported std's parts: the fit's own and the cycle jackknife pooled, the method's part only where the
+// free run's refinement was used, and each part kept for summary.yaml.
+TEST(ParameterUncertainty, CombinesTheFitsTheCyclesAndTheMethodsParts) {
+  HydraulicEstimate equation_error;
+  equation_error.parameters = {{"bulk_modulus", "Pa", 1.50e9, 3e6}, {"dead_volume", "m^3", 2.0e-3, 1e-5}};
+  HydraulicEstimate jackknife = equation_error;
+  jackknife.parameters[0].std = 4e6;
+  jackknife.parameters[1].std = std::nan("");  // the jackknife could not say: the fit's own alone
+  OutputErrorFit refined;
+  refined.improved = true;
+  refined.theta = ParameterVector(2);
+  refined.theta << 1.53e9, 2.0e-3;
+
+  HydraulicEstimate reported = equation_error;
+  auto parts = combineUncertainty(equation_error, refined, &jackknife, &reported);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_DOUBLE_EQ(parts[0].regression, 3e6);
+  EXPECT_DOUBLE_EQ(parts[0].cycles, 4e6);
+  EXPECT_NEAR(parts[0].method, 3e7 / std::sqrt(3.0), 1.0);
+  EXPECT_NEAR(reported.parameters[0].std, std::sqrt(0.5 * (9e12 + 16e12) + 3e14), 1.0);
+  EXPECT_DOUBLE_EQ(parts[1].cycles, 0.0);
+  EXPECT_DOUBLE_EQ(reported.parameters[1].std, 1e-5) << "no method part where the refinement did not move it";
+
+  refined.improved = false;  // the refinement not used: no method part
+  reported = equation_error;
+  parts = combineUncertainty(equation_error, refined, nullptr, &reported);
+  EXPECT_DOUBLE_EQ(parts[0].method, 0.0);
+  EXPECT_DOUBLE_EQ(reported.parameters[0].std, 3e6) << "no jackknife: the fit's own";
 }
 
 }  // namespace
