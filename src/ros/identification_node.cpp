@@ -136,7 +136,7 @@ IdentificationNode::~IdentificationNode() {
 bool IdentificationNode::valveExperimentRunning() const {
   std::lock_guard<std::mutex> lock(mutex_);
   // A step test's interlocks are as time-critical as a sweep's: both want the fine spin.
-  return experiment_commanding_ || experiments_.holdsValve();
+  return experiments_.holdsValve();
 }
 
 // ---- inputs ----
@@ -380,7 +380,6 @@ void IdentificationNode::startExperimentTimer() {
   // Commands at twice the valve rate, so that every valve update finds a fresh one despite scheduling jitter.
   experiment_timer_ =
       nh_.createTimer(ros::Duration(0.5 * limits_.command_period), &IdentificationNode::onExperimentTimer, this);
-  experiment_commanding_ = true;
 }
 
 void IdentificationNode::onExperimentTimer(const ros::TimerEvent&) {
@@ -391,10 +390,7 @@ void IdentificationNode::onExperimentTimer(const ros::TimerEvent&) {
   if (experiments_.running() != ValveExperiments::Kind::kNone) return;
   if (!sweep_reported_) finishSweep();
   stepTestEnded();
-  if (!experiments_.holdsValve()) {  // the offset has been sent
-    experiment_timer_.stop();
-    experiment_commanding_ = false;
-  }
+  if (!experiments_.holdsValve()) experiment_timer_.stop();  // the offset has been sent
 }
 
 void IdentificationNode::publishSweepCommand(double voltage) {

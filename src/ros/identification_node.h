@@ -93,8 +93,7 @@ class IdentificationNode {
   std::uint64_t generation_ = 0;  // live_'s pipeline generation the feed-forward has seen
   // The sweep and the step test, one at a time, behind the same interlocks; the feed-forward pauses for them.
   ValveExperiments experiments_{SweepLimits()};
-  ros::Timer experiment_timer_;
-  bool experiment_commanding_ = false;  // the timer runs (until the experiment handed the valve back)
+  ros::Timer experiment_timer_;  // runs while an experiment holds the valve (until it handed it back)
   ServoValveFit last_valve_fit_;
   bool step_test_reported_ = true;  // the ended step test's status is set
   double step_analysis_due_ = std::numeric_limits<double>::infinity();  // grid time to time the answer

@@ -4,79 +4,72 @@
 
 namespace die_cushion_ident {
 
+namespace {
+
+const char* nameOf(ValveExperiments::Kind kind) {
+  return kind == ValveExperiments::Kind::kSweep ? "valve sweep" : "step test";
+}
+
+}  // namespace
+
 ValveExperiments::ValveExperiments(const SweepLimits& limits) : sweep_(limits), step_test_(limits) {}
 
-std::string ValveExperiments::refuse(const std::string& what, const std::string& reason, double now) {
-  last_refusal_ = what + " refused: " + reason;
+std::string ValveExperiments::refuse(Kind kind, const std::string& reason, double now) {
+  last_refusal_ = std::string(nameOf(kind)) + " refused: " + reason;
   last_refusal_time_ = now;
   return reason;
 }
 
 std::string ValveExperiments::startSweep(const SweepRequest& request, double now,
                                          const PlantCondition& plant) {
-  if (holdsValve()) return refuse("valve sweep", holder() + " holds the valve; abort it first", now);
+  if (holdsValve()) return refuse(Kind::kSweep, holder() + " holds the valve; abort it first", now);
   const std::string refusal = sweep_.start(request, now, plant);
-  if (!refusal.empty()) return refuse("valve sweep", refusal, now);
-  last_started_ = Kind::kSweep;
-  return "";
+  return refusal.empty() ? "" : refuse(Kind::kSweep, refusal, now);
 }
 
 std::string ValveExperiments::startStepTest(const StepTestRequest& request, double now,
                                             const PlantCondition& plant) {
-  if (holdsValve()) return refuse("step test", holder() + " holds the valve; abort it first", now);
+  if (holdsValve()) return refuse(Kind::kStepTest, holder() + " holds the valve; abort it first", now);
   const std::string refusal = step_test_.start(request, now, plant);
-  if (!refusal.empty()) return refuse("step test", refusal, now);
-  last_started_ = Kind::kStepTest;
-  return "";
+  return refusal.empty() ? "" : refuse(Kind::kStepTest, refusal, now);
 }
 
 std::string ValveExperiments::abort(const std::string& reason) {
-  switch (running()) {
-    case Kind::kSweep:
-      sweep_.abort(reason);
-      hand_back_pending_ = true;
-      noteEnd(Kind::kSweep);
-      return formatted("valve sweep aborted; the valve command returns to %g V", sweep_.request().offset);
-    case Kind::kStepTest:
-      step_test_.abort(reason);
-      hand_back_pending_ = true;
-      noteEnd(Kind::kStepTest);
-      return formatted("step test aborted; the valve command returns to %g V", step_test_.request().offset);
-    case Kind::kNone:
-      break;
+  const Kind before = running();
+  if (before == Kind::kNone) return "";
+  double offset = 0.0;
+  if (before == Kind::kSweep) {
+    sweep_.abort(reason);
+    offset = sweep_.request().offset;
+  } else {
+    step_test_.abort(reason);
+    offset = step_test_.request().offset;
   }
-  return "";
+  noteEndOf(before);
+  return std::string(nameOf(before)) + formatted(" aborted; the valve command returns to %g V", offset);
 }
 
 void ValveExperiments::supervise(double now, const PlantCondition& plant) {
   const Kind before = running();
   sweep_.supervise(now, plant);
   step_test_.supervise(now, plant);
-  if (before != Kind::kNone && running() == Kind::kNone) {
-    hand_back_pending_ = true;
-    noteEnd(before);
-  }
+  noteEndOf(before);
 }
 
 std::optional<double> ValveExperiments::command(double now) {
+  const Kind owner = holding();
+  if (owner == Kind::kNone) return std::nullopt;
   const Kind before = running();
-  // Only the experiment started last holds the valve; the other one's hand-back was sent long ago.
-  std::optional<double> u = last_started_ == Kind::kSweep      ? sweep_.command(now)
-                            : last_started_ == Kind::kStepTest ? step_test_.command(now)
-                                                               : std::nullopt;
-  if (before != Kind::kNone && running() == Kind::kNone) noteEnd(before);  // it ended on this command
-  if (running() == Kind::kNone)
-    hand_back_pending_ = false;  // the offset went out (or there was none to send)
+  // Only the experiment that holds the valve commands it (the other one's hand-back went out long ago).
+  const std::optional<double> u = owner == Kind::kSweep ? sweep_.command(now) : step_test_.command(now);
+  noteEndOf(before);  // a step test ends on the command that completes it
   return u;
 }
 
 void ValveExperiments::addValveSample(double t, double voltage, double spool) {
-  const bool was_running = sweep_.running();
+  const Kind before = running();
   sweep_.addValveSample(t, voltage, spool);
-  if (was_running && !sweep_.running()) {
-    hand_back_pending_ = true;
-    noteEnd(Kind::kSweep);
-  }
+  noteEndOf(before);
 }
 
 ValveExperiments::Kind ValveExperiments::running() const {
@@ -85,20 +78,23 @@ ValveExperiments::Kind ValveExperiments::running() const {
   return Kind::kNone;
 }
 
-std::string ValveExperiments::holder() const {
-  const Kind kind = running() != Kind::kNone ? running() : hand_back_pending_ ? last_started_ : Kind::kNone;
-  return kind == Kind::kSweep ? "a valve sweep" : kind == Kind::kStepTest ? "a step test" : "";
+ValveExperiments::Kind ValveExperiments::holding() const {
+  if (sweep_.running() || sweep_.offsetOwed()) return Kind::kSweep;
+  if (step_test_.running() || step_test_.offsetOwed()) return Kind::kStepTest;
+  return Kind::kNone;
 }
 
-void ValveExperiments::noteEnd(Kind kind) {
-  if (kind == Kind::kSweep) {
-    last_end_ = sweep_.state() == ValveSweep::State::kAborted ? "valve sweep aborted: " + sweep_.abortReason()
-                                                              : "valve sweep finished";
-  } else if (kind == Kind::kStepTest) {
-    last_end_ = step_test_.state() == ValveStepTest::State::kAborted
-                    ? "step test aborted: " + step_test_.abortReason()
-                    : "step test finished";
-  }
+std::string ValveExperiments::holder() const {
+  const Kind kind = holding();
+  return kind == Kind::kNone ? "" : std::string("a ") + nameOf(kind);
+}
+
+void ValveExperiments::noteEndOf(Kind before) {
+  if (before == Kind::kNone || running() == before) return;
+  const bool aborted = before == Kind::kSweep ? sweep_.state() == ValveSweep::State::kAborted
+                                              : step_test_.state() == ValveStepTest::State::kAborted;
+  const std::string& reason = before == Kind::kSweep ? sweep_.abortReason() : step_test_.abortReason();
+  last_end_ = std::string(nameOf(before)) + (aborted ? " aborted: " + reason : std::string(" finished"));
 }
 
 }  // namespace die_cushion_ident

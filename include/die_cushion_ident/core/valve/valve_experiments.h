@@ -41,7 +41,7 @@ class ValveExperiments {
   /// "a valve sweep", "a step test" or "": what holds the valve (the feed-forward's pause reason).
   std::string holder() const;
   /// An experiment runs or its hand-back is still to be sent: the valve is not the feed-forward's.
-  bool holdsValve() const { return running() != Kind::kNone || hand_back_pending_; }
+  bool holdsValve() const { return holding() != Kind::kNone; }
 
   const ValveSweep& sweep() const { return sweep_; }
   const ValveStepTest& stepTest() const { return step_test_; }
@@ -52,13 +52,14 @@ class ValveExperiments {
   const std::string& lastEnd() const { return last_end_; }
 
  private:
-  std::string refuse(const std::string& what, const std::string& reason, double now);
-  void noteEnd(Kind kind);
+  /// The experiment that runs or still owes its offset (each keeps that itself).
+  Kind holding() const;
+  std::string refuse(Kind kind, const std::string& reason, double now);
+  /// Notes how `before`, running before an operation, ended if it no longer runs.
+  void noteEndOf(Kind before);
 
   ValveSweep sweep_;
   ValveStepTest step_test_;
-  Kind last_started_ = Kind::kNone;
-  bool hand_back_pending_ = false;
   std::string last_refusal_, last_end_;
   double last_refusal_time_ = std::numeric_limits<double>::quiet_NaN();
 };

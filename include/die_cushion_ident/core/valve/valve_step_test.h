@@ -36,6 +36,8 @@ class ValveStepTest {
 
   State state() const { return state_; }
   bool running() const { return state_ == State::kRunning; }
+  /// Ended, and the offset not yet sent: the next command() hands the valve back.
+  bool offsetOwed() const { return offset_pending_; }
   const StepTestRequest& request() const { return request_; }
   double stepTime() const { return step_time_; }  ///< [s] when the step was applied
   const std::string& abortReason() const { return abort_reason_; }

@@ -102,6 +102,8 @@ class ValveSweep {
 
   State state() const { return state_; }
   bool running() const { return state_ == State::kRunning; }
+  /// Ended, and the offset not yet sent: the next command() hands the valve back.
+  bool offsetOwed() const { return offset_owed_; }
   const std::string& abortReason() const { return abort_reason_; }
   const SweepRequest& request() const { return request_; }
   /// Index of the frequency being measured and its value [Hz] (progress).
