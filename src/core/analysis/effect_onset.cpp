@@ -10,6 +10,7 @@
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/model/effect_library.h"
 #include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/util/least_squares_line.h"
 
 namespace die_cushion_ident {
 
@@ -56,20 +57,12 @@ Step largestStep(const std::vector<double>& v) {
 
 // Residual sum of squares of the least-squares line through v over its index.
 double lineSquares(const std::vector<double>& v) {
-  const double n = static_cast<double>(v.size());
-  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    const double x = static_cast<double>(i);
-    sx += x;
-    sy += v[i];
-    sxx += x * x;
-    sxy += x * v[i];
-  }
-  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-  const double intercept = (sy - slope * sx) / n;
+  const LeastSquaresLine line = fitLeastSquaresLine([&](const auto& visit) {
+    for (std::size_t i = 0; i < v.size(); ++i) visit(static_cast<double>(i), v[i]);
+  });
   double squares = 0.0;
   for (std::size_t i = 0; i < v.size(); ++i) {
-    const double e = v[i] - (intercept + slope * static_cast<double>(i));
+    const double e = v[i] - line.at(static_cast<double>(i));
     squares += e * e;
   }
   return squares;

@@ -11,51 +11,35 @@
 #include <mutex>
 
 #include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/util/least_squares_line.h"
 
 namespace die_cushion_ident {
 
 namespace {
 
-// The least-squares line through the points [begin, end) against their index (0 at begin).
-struct IndexLine {
-  double intercept = 0.0, slope = 0.0;
-  double at(std::size_t i) const { return intercept + slope * static_cast<double>(i); }
-};
-
-IndexLine fitIndexLine(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
-  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
-  for (std::size_t i = begin; i < end; ++i) {
-    const double x = static_cast<double>(i - begin);
-    sx += x;
-    sy += p[i].value;
-    sxx += x * x;
-    sxy += x * p[i].value;
-  }
-  const double m = static_cast<double>(end - begin);
-  const double denominator = m * sxx - sx * sx;
-  IndexLine line;
-  line.slope = denominator > 0.0 ? (m * sxy - sx * sy) / denominator : 0.0;
-  line.intercept = (sy - line.slope * sx) / m;
-  return line;
+// The least-squares line through the points [begin, end) against their index.
+LeastSquaresLine indexLine(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
+  return fitLeastSquaresLine([&](const auto& visit) {
+    for (std::size_t i = begin; i < end; ++i) visit(static_cast<double>(i), p[i].value);
+  });
 }
 
-// Whether a line fits the points [begin, end) much better than their mean (the change's shape).
+// Whether that line fits the points much better than their mean (the change's shape).
 bool rampFitsBetter(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
   if (end < begin + 3) return false;
-  const IndexLine line = fitIndexLine(p, begin, end);
-  double mean = 0.0;
-  for (std::size_t i = begin; i < end; ++i) mean += p[i].value / static_cast<double>(end - begin);
+  const LeastSquaresLine line = indexLine(p, begin, end);
   double level = 0.0, ramp = 0.0;
   for (std::size_t i = begin; i < end; ++i) {
-    level += (p[i].value - mean) * (p[i].value - mean);
-    ramp += (p[i].value - line.at(i - begin)) * (p[i].value - line.at(i - begin));
+    level += (p[i].value - line.y_mean) * (p[i].value - line.y_mean);
+    ramp += (p[i].value - line.at(static_cast<double>(i))) * (p[i].value - line.at(static_cast<double>(i)));
   }
   return ramp < 0.25 * level;
 }
 
-// That line at the last of the points.
+// That line at the last of the points (their mean where it has no slope).
 double lineEnd(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {
-  return fitIndexLine(p, begin, end).at(end - begin - 1);
+  const LeastSquaresLine line = indexLine(p, begin, end);
+  return std::isfinite(line.slope) ? line.at(static_cast<double>(end - 1)) : line.y_mean;
 }
 
 double meanOf(const std::vector<TrendPoint>& p, std::size_t begin, std::size_t end) {

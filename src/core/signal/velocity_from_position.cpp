@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "die_cushion_ident/core/util/least_squares_line.h"
+
 namespace die_cushion_ident {
 
 namespace {
@@ -12,23 +14,9 @@ namespace {
 // Least-squares slope of (t, x) pairs; NaN with fewer than two distinct instants.
 template <typename Range, typename T, typename X>
 double slope(const Range& points, T time_of, X position_of) {
-  double n = 0.0, t_mean = 0.0, x_mean = 0.0;
-  for (const auto& p : points) {
-    const double x = position_of(p);
-    if (!std::isfinite(x)) continue;
-    n += 1.0;
-    t_mean += (time_of(p) - t_mean) / n;
-    x_mean += (x - x_mean) / n;
-  }
-  double stt = 0.0, stx = 0.0;
-  for (const auto& p : points) {
-    const double x = position_of(p);
-    if (!std::isfinite(x)) continue;
-    const double dt = time_of(p) - t_mean;
-    stt += dt * dt;
-    stx += dt * (x - x_mean);
-  }
-  return n >= 2.0 && stt > 0.0 ? stx / stt : std::numeric_limits<double>::quiet_NaN();
+  return fitLeastSquaresLine([&](const auto& visit) {
+           for (const auto& p : points) visit(time_of(p), position_of(p));
+         }).slope;
 }
 
 }  // namespace
