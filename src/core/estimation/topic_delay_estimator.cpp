@@ -145,12 +145,15 @@ class BalanceCost {
   // part (two thirds of the refinement's evaluations), and a curvature probe moves one. Not for several
   // threads at once.
   Fit operator()(double position_shift, double valve_shift, bool with_correlation = false) const {
-    const std::vector<PositionPart>& x = positionParts(position_shift);
-    const std::vector<ValvePart>& y = valveParts(valve_shift);
+    const std::vector<PositionPart>& x =
+        cachedParts(position_cache_, position_shift, &BalanceCost::positionPart);
+    const std::vector<ValvePart>& y = cachedParts(valve_cache_, valve_shift, &BalanceCost::valvePart);
     Sums sums;
     if (with_correlation) sums.rows.reserve(starts_.size());
     for (std::size_t w = 0; w < starts_.size(); ++w) {
-      if (x[w].usable && y[w].usable) sums.add(row(w, x[w], y[w]), x[w].z, x[w].a_begin, x[w].a_end, with_correlation);
+      if (x[w].usable && y[w].usable) {
+        sums.add(row(w, x[w], y[w]), x[w].z, x[w].a_begin, x[w].a_end, with_correlation);
+      }
     }
     return solve(sums, with_correlation);
   }
@@ -165,10 +168,10 @@ class BalanceCost {
     std::vector<std::vector<PositionPart>> x(position_shifts.size());
     std::vector<std::vector<ValvePart>> y(valve_shifts.size());
     for (std::size_t i = 0; i < position_shifts.size(); ++i) {
-      for (std::size_t start : starts_) x[i].push_back(positionPart(start, position_shifts[i]));
+      partsAt(position_shifts[i], &BalanceCost::positionPart, &x[i]);
     }
     for (std::size_t j = 0; j < valve_shifts.size(); ++j) {
-      for (std::size_t start : starts_) y[j].push_back(valvePart(start, valve_shifts[j]));
+      partsAt(valve_shifts[j], &BalanceCost::valvePart, &y[j]);
     }
     std::vector<double> costs;
     costs.reserve(position_shifts.size() * valve_shifts.size());
@@ -251,21 +254,28 @@ class BalanceCost {
     return part;
   }
 
-  const std::vector<PositionPart>& positionParts(double shift) const {
-    if (!(position_cache_.shift == shift)) {
-      position_cache_.parts.clear();
-      for (std::size_t start : starts_) position_cache_.parts.push_back(positionPart(start, shift));
-      position_cache_.shift = shift;
-    }
-    return position_cache_.parts;
+  // Every window's part at `shift`, made by `part` (positionPart or valvePart).
+  template <typename Part>
+  void partsAt(double shift, Part (BalanceCost::*part)(std::size_t, double) const,
+               std::vector<Part>* parts) const {
+    parts->clear();
+    parts->reserve(starts_.size());
+    for (std::size_t start : starts_) parts->push_back((this->*part)(start, shift));
   }
-  const std::vector<ValvePart>& valveParts(double shift) const {
-    if (!(valve_cache_.shift == shift)) {
-      valve_cache_.parts.clear();
-      for (std::size_t start : starts_) valve_cache_.parts.push_back(valvePart(start, shift));
-      valve_cache_.shift = shift;
+  template <typename Part>
+  struct PartsAt {
+    double shift = std::numeric_limits<double>::quiet_NaN();  // [samples] NaN: none kept
+    std::vector<Part> parts;                                  // per window
+  };
+  // The same, kept for the last shift asked.
+  template <typename Part>
+  const std::vector<Part>& cachedParts(PartsAt<Part>& cache, double shift,
+                                       Part (BalanceCost::*part)(std::size_t, double) const) const {
+    if (!(cache.shift == shift)) {
+      partsAt(shift, part, &cache.parts);
+      cache.shift = shift;
     }
-    return valve_cache_.parts;
+    return cache.parts;
   }
 
   // The pressure's own columns of the window starting at `start` (no shift moves them).
@@ -343,11 +353,6 @@ class BalanceCost {
   std::vector<std::size_t> starts_;
   double noise_variance_;  // [Pa^2] the grid pressure's white noise
   std::vector<Vector, Eigen::aligned_allocator<Vector>> pressure_columns_;  // per window
-  template <typename Part>
-  struct PartsAt {
-    double shift = std::numeric_limits<double>::quiet_NaN();  // [samples] NaN: none kept
-    std::vector<Part> parts;                                  // per window
-  };
   mutable PartsAt<PositionPart> position_cache_;
   mutable PartsAt<ValvePart> valve_cache_;
 };
