@@ -13,12 +13,11 @@ CycleGroupFits::CycleGroupFits(const std::vector<GridSample>& grid, const Stroke
   if (g_count < 4) return;
   estimates_.resize(static_cast<std::size_t>(g_count));
   first_.resize(estimates_.size());
-  last_.resize(estimates_.size());
   parallelFor(estimates_.size(), jobs, [&](std::size_t g) {
     const int group = static_cast<int>(g);
     first_[g] = group * strokes.cycles / g_count;
-    last_[g] = (group + 1) * strokes.cycles / g_count - 1;
-    estimates_[g] = fitOnCycles(grid, strokes, config, first_[g], last_[g]);
+    const int last = (group + 1) * strokes.cycles / g_count - 1;
+    estimates_[g] = fitOnCycles(grid, strokes, config, first_[g], last);
   });
   const std::size_t n = estimates_.front().parameters.size();
   valid_ = n > 0 && std::all_of(estimates_.begin(), estimates_.end(), [&](const HydraulicEstimate& e) {

@@ -21,14 +21,13 @@ class CycleGroupFits {
   /// At least 4 groups, every one fitted (with the same parameters).
   bool valid() const { return valid_; }
   int size() const { return static_cast<int>(estimates_.size()); }
-  /// Group g's cycles [first, last] and its own estimate.
+  /// Group g's first cycle and its own estimate.
   int firstCycle(int g) const { return first_[g]; }
-  int lastCycle(int g) const { return last_[g]; }
   const HydraulicEstimate& estimate(int g) const { return estimates_[g]; }
 
  private:
   std::vector<HydraulicEstimate> estimates_;
-  std::vector<int> first_, last_;
+  std::vector<int> first_;
   bool valid_ = false;
 };
 

@@ -31,13 +31,13 @@ struct EffectOnset {
 /// Each library effect (added to the configured model where it is not in it) fitted to every press cycle
 /// alone, up to `max_groups` groups of cycles; in the series of its parameter over the cycles, the split
 /// into "before" and "from cycle k on" whose two means differ most in units of the cycles' pooled scatter
-/// (a two-sample t with G - 2 degrees of freedom, at least 2 groups each side). Of the effects whose step's
-/// corrected p-value is below `significance`, one that appears or grows before one that shrinks, and of
-/// those the one whose model, fitted to the cycles from its step on, runs free closest to them is returned,
-/// where a step describes the
-/// series better than a straight line through it (a gradual drift, the oil warming, is not an onset) and the
-/// parameter lies within its physical range where the effect acts (another effect that starts pulls it out).
-/// Nothing with fewer than 6 cycles. The fits on up to `jobs` threads (0: one per core).
+/// (a two-sample t with G - 2 degrees of freedom, at least 2 groups each side). A step counts where its
+/// corrected p-value is below `significance`, two means describe the series better than a straight line
+/// through it (a gradual drift, the oil warming, is not an onset) and the parameter lies within its
+/// physical range where the effect acts (another effect that starts pulls it out). Of several, one that
+/// appears or grows before one that shrinks, and of those the one whose model, fitted to the cycles from
+/// its step on, runs free closest to them. Nothing with fewer than 6 cycles. The fits on up to `jobs`
+/// threads (0: one per core).
 std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
                                            const StrokeSegmentation& strokes,
                                            const IdentificationConfig& config, double significance = 1e-3,

@@ -12,7 +12,6 @@
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/valve/valve_experiments.h"
-#include "die_cushion_ident/core/valve/valve_experiments.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 
 namespace die_cushion_ident {
