@@ -168,7 +168,9 @@ TEST(ValveExperiments, PropertyNoSequenceRunsTwoOrLeavesTheLimits) {
         ASSERT_GE(*u, limits.min_voltage);
         ASSERT_LE(*u, limits.max_voltage);
       }
-      if (experiments.running() != ValveExperiments::Kind::kNone) ASSERT_NE(experiments.holder(), "");
+      if (experiments.running() != ValveExperiments::Kind::kNone) {
+        ASSERT_NE(experiments.holder(), "");
+      }
     }
   }
   // Both kinds ran, often: the sequences exercised them, not only their refusals.

@@ -262,7 +262,7 @@ bool withinResolution(double error_rms, double noise_rms, const EffectRankingOpt
 EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                 const IdentificationConfig& config, const EffectRankingOptions& options) {
   EffectRankingResult ranking;
-  ranking.noise_rms = noiseRms(grid);
+  ranking.noise_rms = config.grid_pressure_noise > 0.0 ? config.grid_pressure_noise : noiseRms(grid);
   const int cycles = strokes.cycles;
   const int split = options.split(cycles);
   const bool enough = split >= 1 && cycles - split >= 1 && cycles >= options.min_held_out_cycles;

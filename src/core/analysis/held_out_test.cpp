@@ -82,6 +82,7 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
                                              grid.begin() + std::min(fit_end, grid.size()));
       OutputErrorOptions without_stds;
       without_stds.with_stds = false;
+      without_stds.pressure_noise = config.grid_pressure_noise;
       const OutputErrorFit refined =
           refineByOutputError(training, model, theta, fits[which]->estimate().standardDeviations(),
                               config.min_pressure, without_stds);

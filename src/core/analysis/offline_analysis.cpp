@@ -143,6 +143,7 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
 void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
   ++messages_;
   pipeline_.push(stream, sample);
+  if (stream == InputStream::kPressure) pressure_noise_.add(sample.stamp, sample.first);
   // The sweep analysis wants the raw valve signal, not the 2 ms grid (sweeps reach 160 Hz), but only where
   // the command can be a sweep: hours of press strokes are not kept.
   if (stream == InputStream::kValve && std::isfinite(sample.stamp) && std::isfinite(sample.first)) {
@@ -185,6 +186,7 @@ void OfflineAnalysis::reserve(double seconds, double max_seconds) {
 void OfflineAnalysis::endInput() {
   if (!flushed_) pipeline_.flush();
   flushed_ = true;
+  config_.grid_pressure_noise = pressure_noise_.forGrid(config_.resampler.sample_period);
 }
 
 TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
@@ -339,6 +341,7 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
       tell("refining the parameters by the free run's error");
       OutputErrorOptions refine;
       refine.jobs = jobs_;
+      refine.pressure_noise = config_.grid_pressure_noise;
       r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),
                                            config_.min_pressure, refine);
       if (r.output_error->improved) {

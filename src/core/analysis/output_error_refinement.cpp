@@ -117,9 +117,13 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
     fit.message = "too few samples the free run covers";
     return fit;
   }
-  WhiteNoiseEstimator noise(4);
-  for (std::size_t i = 1; i + 1 < n; ++i) noise.add(grid[i - 1].p, grid[i].p, grid[i + 1].p);
-  fit.noise = noise.sigma();
+  if (refine.pressure_noise > 0.0) {
+    fit.noise = refine.pressure_noise;
+  } else {
+    WhiteNoiseEstimator noise(4);
+    for (std::size_t i = 1; i + 1 < n; ++i) noise.add(grid[i - 1].p, grid[i].p, grid[i + 1].p);
+    fit.noise = noise.sigma();
+  }
   // Far above the noise the model lacks something, and no refinement would reach it: not tried.
   if (!(std::isfinite(fit.noise) && fit.start_rms <= kWorthRefining * fit.noise)) {
     fit.message = formatted("not refined: the free run's error is %.3g bar, %.1f times the pressure noise: the "

@@ -265,8 +265,8 @@ constexpr std::size_t kDelaySamples = 12000;
 // model's free run comes near the noise (refineByOutputError keeps nothing else: a model that lacks an
 // effect would bend the offset to hide it). The refinement where the offset moved.
 std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, const HydraulicEstimate& fit,
-                                                  const std::vector<GridSample>& grid, int jobs,
-                                                  SettingsChoice& choice) {
+                                                  const std::vector<GridSample>& grid, double period,
+                                                  int jobs, SettingsChoice& choice) {
   if (!choice.delays || !choice.delays->valid || fit.updates == 0 || !fit.values().allFinite()) return std::nullopt;
   constexpr int kPosition = static_cast<int>(InputStream::kPosition);
   const double prior = choice.delays->resolution[kPosition];
@@ -278,6 +278,9 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   options.with_stds = false;
   options.max_samples = kDelaySamples;
   options.jobs = jobs;
+  // At a period between the pressure's messages the grid's own second differences see interpolations.
+  const double pressure_interval = choice.survey.message_interval[static_cast<int>(InputStream::kPressure)];
+  if (period < 0.9 * pressure_interval) options.pressure_noise = choice.survey.pressure_noise;
   const OutputErrorFit refined =
       refineByOutputError(grid, model, fit.values(), fit.standardDeviations(), choice.config.min_pressure, options);
   if (!refined.improved) return std::nullopt;
@@ -430,7 +433,7 @@ SettingsChoice SettingsFromRecording::choose() const {
       HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
   // The position's offset refined by the free run: the finest level's grid read with it, and the refined
   // parameters (fitted with it) studied.
-  const std::optional<OutputErrorFit> refined = refinePositionDelay(model, fit, levels.back().grid, jobs_, choice);
+  const std::optional<OutputErrorFit> refined = refinePositionDelay(model, fit, levels.back().grid, periods.back(), jobs_, choice);
   if (refined) {
     Level& finest = levels.back();
     finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice.position_delay_shift);

@@ -116,6 +116,10 @@ PushResult LiveIdentification::push(InputStream stream, const StreamSample& samp
     if (survey_) startSurvey();
   }
   if (survey_) surveyMessage(stream, sample);
+  if (stream == InputStream::kPressure) {
+    pressure_noise_.add(sample.stamp, sample.first);
+    monitor_->setGridPressureNoise(pressure_noise_.forGrid(config_.resampler.sample_period));
+  }
   // Changes that rebuild the pipeline, after the message (never from inside its callbacks).
   poll();
   return result;

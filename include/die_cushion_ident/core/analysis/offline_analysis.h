@@ -17,6 +17,7 @@
 #include "die_cushion_ident/core/valve/recorded_sweep.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
+#include "die_cushion_ident/core/signal/message_noise.h"
 
 namespace die_cushion_ident {
 
@@ -157,6 +158,7 @@ class OfflineAnalysis {
   std::vector<ValveSample> valve_;
   EstimateSeries estimates_;
   SweepCandidateFilter valve_filter_;
+  MessageNoise pressure_noise_;  // the sensor's, for grids finer than its messages
   void endInput();  // flushes the pipeline once
   // Finds and fits a recorded valve sweep; its model becomes the one the fits judge the port side with.
   void analyzeValveSweep(OfflineResult* result, const std::function<void(const std::string&)>& tell);

@@ -42,6 +42,9 @@ struct OutputErrorOptions {
   double position_shift_scale = 0.0;
   /// Threads for the Jacobian's columns (0: one per core). 1 where the caller runs fits side by side.
   int jobs = 1;
+  /// [Pa] the pressure noise the free run is judged by (IdentificationConfig::grid_pressure_noise); 0: estimated
+  /// on the grid.
+  double pressure_noise = 0.0;
 };
 
 /// Minimises the free run's error over the parameters (Ceres, from the equation-error estimate `start`),

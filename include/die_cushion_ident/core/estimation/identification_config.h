@@ -63,6 +63,10 @@ struct IdentificationConfig {
   /// reaches the noise: set by the offline analysis; the live ranking, which must keep pace with the
   /// strokes, leaves it off.
   bool refine_held_out_fits = false;
+  /// [Pa] the pressure sensor's noise read from its messages (MessageNoise::forGrid), set by the analyses
+  /// where the grid lies between the messages and its own second differences see interpolations; 0: the
+  /// noise is estimated on the grid. Not a configuration key.
+  double grid_pressure_noise = 0.0;
   /// [s] how long the valve amplifier holds each command; NaN (default) = one valve message interval;
   /// 0 = the voltage was sampled from a continuous signal (no hold to divide out of a sweep's response).
   double valve_command_hold = std::numeric_limits<double>::quiet_NaN();

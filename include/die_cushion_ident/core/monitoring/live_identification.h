@@ -15,6 +15,7 @@
 #include "die_cushion_ident/core/monitoring/health_report.h"
 #include "die_cushion_ident/core/monitoring/live_diagnostics.h"
 #include "die_cushion_ident/core/monitoring/live_model_monitor.h"
+#include "die_cushion_ident/core/signal/message_noise.h"
 
 namespace die_cushion_ident {
 
@@ -104,6 +105,7 @@ class LiveIdentification {
   GridCallback on_grid_;
   StepCallback on_step_;
   std::vector<LiveEvent> events_;
+  MessageNoise pressure_noise_;  // the sensor's, for grids finer than its messages
 
   std::unique_ptr<SettingsFromRecording> survey_;  // while messages are kept
   std::future<SettingsChoice> study_;              // while the study runs

@@ -55,6 +55,9 @@ class LiveModelMonitor {
   void restart(const IdentificationConfig& config, const HydraulicModel& model);
   /// The stamps jumped (a bag restarted): the free run starts again at the measured pressure.
   void resync();
+  /// [Pa] the pressure sensor's noise from its messages, for the rankings where the grid lies between them
+  /// (IdentificationConfig::grid_pressure_noise; 0: estimated on the grid).
+  void setGridPressureNoise(double sigma) { config_.grid_pressure_noise = sigma; }
 
   /// One grid sample with the identifier's state after it: the free-run step, the phase, the errors.
   /// Starts a ranking when one is due and none runs; returns a ranking that finished since the last call.

@@ -1,0 +1,35 @@
+#pragma once
+
+#include <limits>
+
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
+
+namespace die_cushion_ident {
+
+/// A sensor's white noise read from its own messages, before any resampling, and how often they come.
+/// A grid finer than the messages holds interpolations between them, whose second differences are far
+/// smaller than the sensor's (0.5 ms from 1 kHz pressure: the grid's estimate was 7 times too small, and a
+/// clean press's error read 7.6 times "the noise"). Constant memory.
+class MessageNoise {
+ public:
+  /// A message; non-finite values and stamps that do not advance are skipped (a bag that loops starts the
+  /// second differences over).
+  void add(double stamp, double value);
+  /// The noise's standard deviation [the value's unit]; +infinity until enough messages.
+  double sigma() const { return noise_.sigma(); }
+  /// The mean interval between consecutive messages [s]; NaN until two.
+  double meanInterval() const;
+  /// The noise a grid of this period is to be compared with: the messages' where the grid lies between
+  /// them (period below 0.9 of their interval), else 0 (the grid's own estimate is then the sensor's).
+  double forGrid(double sample_period) const;
+
+ private:
+  WhiteNoiseEstimator noise_{4};
+  double values_[3] = {0.0, 0.0, 0.0};
+  int run_ = 0;  // consecutive messages in values_ (up to 3)
+  double last_stamp_ = std::numeric_limits<double>::quiet_NaN();
+  double interval_sum_ = 0.0;
+  long intervals_ = 0;
+};
+
+}  // namespace die_cushion_ident
