@@ -3,6 +3,7 @@
 
 #include <atomic>
 
+#include "batched_spin.h"
 #include "identification_node.h"
 
 int main(int argc, char** argv) {
@@ -11,7 +12,8 @@ int main(int argc, char** argv) {
   try {
     die_cushion_ident::IdentificationNode node(nh, pnh);
     const std::atomic<bool> never(false);
-    die_cushion_ident::spinBatched(*ros::getGlobalCallbackQueue(), node, never);
+    die_cushion_ident::spinBatched(*ros::getGlobalCallbackQueue(), [&node] { return node.valveExperimentRunning(); },
+                                   never);
   } catch (const std::exception& e) {
     ROS_FATAL("die_cushion_ident not started: %s", e.what());
     return 2;

@@ -7,6 +7,7 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <thread>
 
+#include "batched_spin.h"
 #include "identification_node.h"
 
 namespace die_cushion_ident {
@@ -33,7 +34,7 @@ class IdentificationNodelet : public nodelet::Nodelet {
       NODELET_FATAL("die_cushion_ident not started: %s", e.what());
       return;
     }
-    thread_ = std::thread([this] { spinBatched(queue_, *node_, stop_); });
+    thread_ = std::thread([this] { spinBatched(queue_, [this] { return node_->valveExperimentRunning(); }, stop_); });
   }
 
   ros::CallbackQueue queue_;

@@ -147,4 +147,14 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   return problems;
 }
 
+LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settings, const ros::NodeHandle& pnh) {
+  LiveIdentificationSettings live;
+  live.monitor.ranking_window = settings.effect_ranking_window;
+  live.monitor.ranking_period = settings.effect_ranking_period;
+  live.choose_settings = settings.choose_settings;
+  live.survey_seconds = settings.survey_seconds;
+  live.configured = configuredKeys(pnh);
+  return live;
+}
+
 }  // namespace die_cushion_ident

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/monitoring/live_identification.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 
 namespace die_cushion_ident {
@@ -33,6 +34,8 @@ struct NodeSettings {
 
 /// The configuration keys among the private parameters (kept and judged by the settings survey).
 std::set<std::string> configuredKeys(const ros::NodeHandle& pnh);
+/// The live identification's settings from the node's (and which keys the user configured).
+LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settings, const ros::NodeHandle& pnh);
 
 /// A list of strings: a YAML list, or one string "a,b" / "[a, b]" as given on a command line (commas
 /// inside parentheses stay: a custom effect may hold max(p, 0)). Problems are appended to `problems`.

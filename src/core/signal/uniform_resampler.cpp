@@ -331,4 +331,19 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
   }
 }
 
+const char* pushResultText(UniformResampler::PushResult result) {
+  switch (result) {
+    case UniformResampler::PushResult::kNonFinite:
+      return "non-finite stamp or value";
+    case UniformResampler::PushResult::kDuplicate:
+      return "duplicate stamp";
+    case UniformResampler::PushResult::kOutOfOrder:
+      return "stamp older than the previous one";
+    case UniformResampler::PushResult::kImplausible:
+      return "value outside the physically plausible range";
+    default:
+      return "";
+  }
+}
+
 }  // namespace die_cushion_ident

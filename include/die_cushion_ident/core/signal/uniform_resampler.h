@@ -166,4 +166,7 @@ class UniformResampler {
   std::deque<Held> held_;  // messages on a candidate new time base, oldest first
 };
 
+/// Why a message was not taken, in words ("" for kAccepted, kRestarted and kHeld).
+const char* pushResultText(UniformResampler::PushResult result);
+
 }  // namespace die_cushion_ident
