@@ -3,6 +3,8 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <array>
+#include <optional>
 #include <climits>
 #include <cmath>
 #include <cstdio>
@@ -30,11 +32,12 @@ bool usable(const GridSample& s, const IdentificationConfig& config) {
 // squares, all breakpoints of a shape in one pass over the samples.
 class BalanceScreen {
  public:
+  /// On cycles [first_cycle, last_cycle] (all: INT_MIN, INT_MAX).
   BalanceScreen(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                 const IdentificationConfig& config, const HydraulicModel& model, const ParameterVector& theta,
-                const FormulaSearchOptions& options)
+                const FormulaSearchOptions& options, int first_cycle = INT_MIN, int last_cycle = INT_MAX)
       : grid_(grid), window_(options.window), dt_(config.resampler.sample_period) {
-    const auto [begin, end] = strokes.range(INT_MIN, INT_MAX);
+    const auto [begin, end] = strokes.range(first_cycle, last_cycle);
     // Windows of window_+1 usable samples in a row, not overlapping.
     std::vector<std::size_t> starts;
     std::size_t run = 0;
@@ -290,17 +293,18 @@ double freeRunRms(const std::vector<GridSample>& grid, const StrokeSegmentation&
 
 // The screen ranks shapes by the equation error, which weighs fast transients by their noise; the
 // breakpoint a user adds is the one that makes the model run best. A golden-section search on the
-// free-run error over the screen's bracket, on at most a dozen cycles, settles it (0.8 % of the bracket).
+// free-run error over the screen's bracket, on at most a dozen of cycles [first, last], settles it (0.8 % of
+// the bracket).
 FormulaTerm refineBreakpoint(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                              const IdentificationConfig& model, const Screened& screened,
-                             const FormulaSearchOptions& options) {
+                             const FormulaSearchOptions& options, int first = 0, int last = INT_MAX) {
   if (!screened.term.hasBreakpoint() || !(screened.hi > screened.lo)) return screened.term;
-  const int last = std::min(strokes.cycles, options.refinement_cycles) - 1;
+  last = std::min({last, strokes.cycles - 1, first + options.refinement_cycles - 1});
   const auto error = [&](double b) {
     IdentificationConfig extended = model;
     extended.custom_effects.push_back(screened.term.name() + "=" + screened.term.withBreakpoint(b).expression());
     try {
-      return freeRunRms(grid, strokes, extended, 0, last);
+      return freeRunRms(grid, strokes, extended, first, last);
     } catch (const std::invalid_argument&) {
       return std::numeric_limits<double>::infinity();
     }
@@ -337,10 +341,47 @@ std::string uniqueName(const std::string& wanted, const IdentificationConfig& mo
   return name;
 }
 
-// Proves one screened term like a library candidate.
+// The held-out errors of a term whose breakpoint each fold chooses on its own training cycles (the screen
+// and the free-run refinement, as on all cycles): the cycles a fold is tested on never took part in
+// choosing what is tested on them. Empty where a fold's screen finds no physical breakpoint for the shape.
+std::optional<HeldOutErrors> heldOutErrorsNested(const std::vector<GridSample>& grid,
+                                                 const StrokeSegmentation& strokes, const IdentificationConfig& model,
+                                                 const FormulaTerm& term, const FormulaProposal& proposal,
+                                                 const EffectRankingOptions& ranking,
+                                                 const FormulaSearchOptions& options) {
+  const int split = ranking.split(strokes.cycles);
+  std::array<IdentificationConfig, 2> folds = {model, model};
+  const HydraulicModel hydraulic = HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects);
+  for (int which = 0; which < 2; ++which) {
+    FormulaTerm chosen = term;
+    if (term.hasBreakpoint()) {
+      const int first = which == 0 ? 0 : split, last = which == 0 ? split - 1 : strokes.cycles - 1;
+      ParameterVector theta = fitOnCycles(grid, strokes, model, first, last).values();
+      if (!theta.allFinite()) theta = hydraulic.nominalParameters();
+      const BalanceScreen screen(grid, strokes, model, hydraulic, theta, options, first, last);
+      if (screen.windows() < 10 * hydraulic.parameterCount()) return std::nullopt;
+      const Screened screened = bestOfShape(screen, term, options);
+      if (!(screened.reduction > 0.0)) return std::nullopt;
+      try {
+        chosen = refineBreakpoint(grid, strokes, model, screened, options, first, last);
+      } catch (const std::invalid_argument&) {
+        return std::nullopt;
+      }
+    }
+    folds[which].custom_effects.push_back(proposal.name + "=" + chosen.expression());
+  }
+  try {
+    return heldOutErrors(grid, strokes, folds, split);
+  } catch (const std::invalid_argument&) {
+    return std::nullopt;  // a fold's breakpoint leaves a term that is zero where the effect is probed
+  }
+}
+
+// Proves one screened term like a library candidate, its breakpoint chosen within each fold.
 FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                       const IdentificationConfig& model, const HeldOutErrors& base, const FormulaTerm& term,
-                      const BalanceScreen& screen, const EffectRankingOptions& ranking) {
+                      const BalanceScreen& screen, const EffectRankingOptions& ranking,
+                      const FormulaSearchOptions& options) {
   FormulaProposal proposal;
   proposal.name = uniqueName(term.name(), model);
   proposal.expression = term.expression();
@@ -357,7 +398,14 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
     theta = p.value;
     proposal.parameters.push_back(p);
   }
-  const HeldOutErrors with = heldOutErrors(grid, strokes, extended, ranking.split(strokes.cycles));
+  const std::optional<HeldOutErrors> nested = heldOutErrorsNested(grid, strokes, model, term, proposal, ranking, options);
+  if (!nested) {
+    proposal.verdict = Verdict::kInconclusive;
+    proposal.explanation = term.explanation() + "; on one half of the cycles alone the screen finds no physical "
+                                                "breakpoint for it, so it could not be tested on the other half";
+    return proposal;
+  }
+  const HeldOutErrors& with = *nested;
   const HeldOutComparison test = compareHeldOut(base, with, ranking.significance);
   proposal.held_out = with;
   proposal.error_reduction = test.error_reduction;
@@ -407,21 +455,22 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
     if (candidate.reduction < options.prove_fraction * screened.front().reduction) break;
     try {
       const FormulaTerm term = refineBreakpoint(grid, strokes, model, candidate, options);
-      proven.emplace_back(prove(grid, strokes, model, base, term, screen, ranking), term.complexity());
+      proven.emplace_back(prove(grid, strokes, model, base, term, screen, ranking, options), term.complexity());
     } catch (const std::invalid_argument&) {
       // A breakpoint at the edge of the data can leave a term that is zero over the operating range the
       // custom effect is probed on: not a formula a user could add; the next shape is tried instead.
     }
   }
-  // Holm's correction over the shapes proven (the screen's choice among all shapes is not counted: see
-  // doc/formula_search.md, limits).
-  std::vector<double> p_values;
-  for (const auto& p : proven) p_values.push_back(p.first.p_value);
+  // Holm's correction over every shape the screen rated, not only those proven: the screen chose which to
+  // prove on all cycles, the held-out ones included, so each shape it could have chosen counts as a test
+  // (an unproven one with p = 1). Each proven shape's own breakpoint is chosen within the folds.
+  std::vector<double> p_values(std::max(proven.size(), screened.size()), 1.0);
+  for (std::size_t i = 0; i < proven.size(); ++i) p_values[i] = proven[i].first.p_value;
   const std::vector<bool> rejected = holmRejected(p_values, ranking.significance);
   for (std::size_t i = 0; i < proven.size(); ++i) {
     FormulaProposal& p = proven[i].first;
     if (p.verdict != Verdict::kMissing) continue;
-    const std::string demoted = holmDemotion(p.error_reduction, p.p_value, rejected[i], proven.size(), "formulas");
+    const std::string demoted = holmDemotion(p.error_reduction, p.p_value, rejected[i], p_values.size(), "shapes");
     if (demoted.empty()) continue;
     p.verdict = Verdict::kInconclusive;
     p.explanation = p.explanation.substr(0, p.explanation.find(';')) + demoted;

@@ -57,18 +57,20 @@ HydraulicEstimate fitOnStretches(const std::vector<GridSample>& grid, const Iden
 }
 }  // namespace
 
-HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                            const IdentificationConfig& config, int split, bool side_by_side,
-                            HydraulicEstimate* fitted_on_both) {
+namespace {
+
+HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                   const std::array<const IdentificationConfig*, 2>& fold_configs, int split,
+                                   bool side_by_side, std::unique_ptr<HydraulicIdentifier> (&fits)[2]) {
   HeldOutErrors result;
   result.cycle_rms.assign(strokes.cycles, std::numeric_limits<double>::quiet_NaN());
-  const HydraulicModel model =
-      HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
   // Each fold fills only its own held-out cycles' sums.
   std::vector<double> sum(strokes.cycles, 0.0);
   std::vector<int> count(strokes.cycles, 0);
-  std::unique_ptr<HydraulicIdentifier> fits[2];
   const auto fold = [&](int which) {
+    const IdentificationConfig& config = *fold_configs[which];
+    const HydraulicModel model =
+        HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
     const int fit_first = which == 0 ? 0 : split, fit_last = which == 0 ? split - 1 : strokes.cycles - 1;
     const int test_first = which == 0 ? split : 0, test_last = which == 0 ? strokes.cycles - 1 : split - 1;
     fits[which] = fitIdentifierOnStretches(grid, config, {strokes.range(fit_first, fit_last)});
@@ -106,7 +108,6 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
   std::future<void> second = std::async(side_by_side ? std::launch::async : std::launch::deferred, fold, 1);
   fold(0);
   second.get();
-  if (fitted_on_both) *fitted_on_both = fits[0]->combinedEstimate(*fits[1]);
   double total = 0.0;
   int total_n = 0;
   for (int c = 0; c < strokes.cycles; ++c) {
@@ -117,6 +118,23 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
   }
   result.rms = total_n > 0 ? std::sqrt(total / total_n) : 0.0;
   return result;
+}
+
+}  // namespace
+
+HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const IdentificationConfig& config, int split, bool side_by_side,
+                            HydraulicEstimate* fitted_on_both) {
+  std::unique_ptr<HydraulicIdentifier> fits[2];
+  HeldOutErrors result = heldOutErrorsOfFolds(grid, strokes, {&config, &config}, split, side_by_side, fits);
+  if (fitted_on_both) *fitted_on_both = fits[0]->combinedEstimate(*fits[1]);
+  return result;
+}
+
+HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const std::array<IdentificationConfig, 2>& fold_configs, int split, bool side_by_side) {
+  std::unique_ptr<HydraulicIdentifier> fits[2];
+  return heldOutErrorsOfFolds(grid, strokes, {&fold_configs[0], &fold_configs[1]}, split, side_by_side, fits);
 }
 
 HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors& with, double significance) {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
@@ -22,6 +23,13 @@ struct HeldOutErrors {
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                             const IdentificationConfig& config, int split, bool side_by_side = false,
                             HydraulicEstimate* fitted_on_both = nullptr);
+
+/// The same with a model of each fold's own: `fold_configs[0]` fitted on cycles [0, split) and run free on
+/// the rest, `fold_configs[1]` the other way round. For an extension chosen on each fold's training cycles
+/// only (a formula's breakpoint), so that the cycles it is tested on never took part in choosing it.
+HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const std::array<IdentificationConfig, 2>& fold_configs, int split,
+                            bool side_by_side = false);
 
 /// A model against its base on the same held-out cycles: the cycles are the independent units of a paired
 /// one-sided t test on the log ratio of their errors (a stroke holds thousands of strongly correlated
