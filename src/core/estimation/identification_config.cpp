@@ -158,6 +158,16 @@ bool setNumericConfigValue(IdentificationConfig& config, const std::string& key,
   return false;
 }
 
+double numericConfigValue(const IdentificationConfig& config, const std::string& key) {
+  if (key == "moving_average_width") return config.moving_average_width;
+  if (key == "derivative_width") return config.derivative_width;
+  for (const auto& k : kNumericKeys) {
+    // The table's fields are read here, never written.
+    if (key == k.name) return *k.field(const_cast<IdentificationConfig&>(config));
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 std::vector<std::string> IdentificationConfig::validate() const {
   Checker c;
   c.range("piston_area", geometry.piston_area, 0.0, 10.0, "m^2", true);

@@ -90,6 +90,13 @@ bool setSweepLimit(SweepLimits& limits, const std::string& key, double value) {
   return false;
 }
 
+double sweepLimitValue(const SweepLimits& limits, const std::string& key) {
+  for (const auto& k : kLimitKeys) {
+    if (key == k.key) return limits.*k.field;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 namespace {
 constexpr long kMinSweepFrequencies = 5;
 }  // namespace

@@ -111,5 +111,7 @@ std::string numericConfigProblem(const std::string& key, double value);
 /// Sets a numeric key (e.g. "forgetting_factor", "piston_area", "max_gap"); false if the key is unknown.
 /// Values are checked later by validate(), so that every problem is reported at once.
 bool setNumericConfigValue(IdentificationConfig& config, const std::string& key, double value);
+/// A numeric key's value (the filter widths as numbers); NaN for an unknown key.
+double numericConfigValue(const IdentificationConfig& config, const std::string& key);
 
 }  // namespace die_cushion_ident

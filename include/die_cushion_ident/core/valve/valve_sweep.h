@@ -50,6 +50,8 @@ struct SweepLimits {
 };
 std::vector<std::string> sweepLimitKeys();
 bool setSweepLimit(SweepLimits& limits, const std::string& key, double value);
+/// A limit's value by its key; NaN for an unknown key.
+double sweepLimitValue(const SweepLimits& limits, const std::string& key);
 
 /// Why a request is not acceptable under the limits ("" when it is).
 std::string checkSweepRequest(const SweepRequest& request, const SweepLimits& limits);
