@@ -315,13 +315,10 @@ bool SettingsFromRecording::push(InputStream stream, const StreamSample& sample)
   return !complete_;
 }
 
-SettingsChoice SettingsFromRecording::choose() const {
-  const auto started = std::chrono::steady_clock::now();
-  SettingsChoice choice;
-  choice.config = config_;
-  RecordingSurvey& survey = choice.survey;
+namespace {
 
-  // Rates, pressure noise and the valve's operation.
+// Message rates, pressure noise and the valve's operation (commands with a measured spool) of the survey.
+std::vector<ValveSample> surveyMessages(const Messages& messages, RecordingSurvey* survey) {
   std::array<std::vector<double>, kInputStreamCount> intervals;
   std::array<double, kInputStreamCount> last = {NAN, NAN, NAN};
   WhiteNoiseEstimator pressure_noise(1);
@@ -330,7 +327,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   std::vector<ValveSample> valve;
   std::size_t valve_messages = 0;
   double low = std::numeric_limits<double>::infinity(), high = -low;
-  for (const auto& [stream, m] : messages_) {
+  for (const auto& [stream, m] : messages) {
     const int s = static_cast<int>(stream);
     if (!std::isfinite(m.stamp) || !std::isfinite(m.first)) continue;
     low = std::min(low, m.stamp);
@@ -347,23 +344,327 @@ SettingsChoice SettingsFromRecording::choose() const {
       if (std::isfinite(m.second)) valve.push_back({m.stamp, m.first, m.second});
     }
   }
-  survey.seconds = high > low ? high - low : 0.0;
-  for (int s = 0; s < kInputStreamCount; ++s) survey.message_interval[s] = median(intervals[s]);
-  survey.pressure_noise = std::isfinite(pressure_noise.sigma()) ? pressure_noise.sigma() : 0.0;
-  survey.spool_measured = valve_messages > 0 && valve.size() * 2 > valve_messages;
+  survey->seconds = high > low ? high - low : 0.0;
+  for (int s = 0; s < kInputStreamCount; ++s) survey->message_interval[s] = median(intervals[s]);
+  survey->pressure_noise = std::isfinite(pressure_noise.sigma()) ? pressure_noise.sigma() : 0.0;
+  survey->spool_measured = valve_messages > 0 && valve.size() * 2 > valve_messages;
+  return valve;
+}
 
+std::string unmodelledSpoolWarning(const ServoValveParameters& valve) {
+  return formatted("the spool is not measured and no valve model is configured: the spool is predicted by the "
+                   "default valve (%.0f Hz, damping %.2f, dead time %.2f ms), and the free run is only as right "
+                   "as it. Configure the valve (valve_natural_frequency, valve_damping, valve_gain, "
+                   "valve_dead_time) from a sweep of this valve",
+                   valve.natural_frequency, valve.damping, 1e3 * valve.dead_time);
+}
+
+// The study's periods: from the paper's 2 ms down, halving, never finer than the finest topic's messages
+// (a grid between messages only interpolates them linearly, which undoes the free run's cubic inputs).
+std::vector<double> studyPeriods(double finest_interval) {
+  std::vector<double> periods;
+  for (double period = kCoarsestPeriod; period >= kFinestPeriod * (1.0 - 1e-9); period *= 0.5) {
+    if (std::isfinite(finest_interval) && period < 0.9 * finest_interval) break;
+    periods.push_back(period);
+  }
+  if (periods.empty()) periods.push_back(kCoarsestPeriod);
+  return periods;
+}
+
+// The valve model that drives the free run and judges the port side: the one fitted to the operation where
+// the spool is measured, unless it does not follow the spool better than the configured one.
+void adoptValveFit(ValveOperationFit fit, bool valve_configured, SettingsChoice& choice) {
+  choice.valve = std::move(fit);
+  if (!choice.valve->success || !(choice.valve->residual_rms < choice.valve->start_residual_rms)) return;
+  choice.config.valve = choice.valve->parameters;
+  choice.config.valve_model_drives_free_run = true;
+  choice.valve_from_operation = true;
+  if (valve_configured && choice.valve->start_residual_rms > 1.5 * choice.valve->noise_sigma) {
+    choice.warnings.push_back(
+        "the configured valve model does not follow the measured spool (" +
+        formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
+                  choice.valve->noise_sigma) +
+        "): the analysis uses the one fitted to the recording's operation instead (" + choice.valve->message + ")");
+  }
+}
+
+// What the resolution study decided.
+struct StudyOutcome {
+  double chosen_period = 0.0;
+  double shortest_drawing = 0.0;
+  bool studied = false;   // the configured model's fit was plausible, and its free run was studied
+  bool resolved = false;  // a period's free run changed by less than the allowed share when it halved
+  std::string implausible;  // the first implausible parameter, where the fit was
+};
+
+// The study itself: the model identified once, at the finest period, then run free at every period: how
+// much the free run moves as the period halves is the grid's own error.
+class ResolutionStudy {
+ public:
+  ResolutionStudy(const Messages& messages, std::vector<double> periods, int jobs, SettingsChoice& choice)
+      : messages_(messages), periods_(std::move(periods)), jobs_(jobs), choice_(choice),
+        model_(HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects)),
+        levels_(periods_.size()) {}
+
+  StudyOutcome run(double allowed_change, double noise, double finest_interval, double configured_period);
+
+ private:
+  Level& level(std::size_t k) {
+    if (levels_[k].grid.empty()) levels_[k] = levelAt(atPeriod(choice_.config, periods_[k], shortest_drawing_), messages_);
+    if (levels_[k].t.empty()) runFree(model_, theta_, choice_.config.min_pressure, &levels_[k]);
+    return levels_[k];
+  }
+  void identifyAtTheFinestPeriod(StudyOutcome& outcome);
+  std::size_t halveUntilSettled(double allowed_change, bool* resolved);
+  void judgeTheFinestPeriod(std::size_t chosen, double allowed_change, double noise, double finest_interval,
+                            bool* resolved);
+
+  const Messages& messages_;
+  std::vector<double> periods_;
+  int jobs_;
+  SettingsChoice& choice_;
+  HydraulicModel model_;
+  std::vector<Level> levels_;
+  HydraulicEstimate fit_;
+  ParameterVector theta_;
+  double shortest_drawing_ = 0.0;
+};
+
+// Identifies the model at the finest period and refines the position's offset by the free run there. A
+// configured model that lacks an effect the press has can fit to nonsense (a negative bulk modulus where the
+// tank pressure is missing on a fast press); its free run then says nothing about the grid, and a resolution
+// error read from it would hide the missing effect. Such a fit is not studied: the finest period the
+// recording supports is taken, and no resolution error is claimed.
+void ResolutionStudy::identifyAtTheFinestPeriod(StudyOutcome& outcome) {
+  levels_.back() = levelAt(atPeriod(choice_.config, periods_.back(), 0.0), messages_);
+  shortest_drawing_ = shortestDrawing(levels_.back());
+  choice_.survey.cycles = levels_.back().strokes.cycles;
+  choice_.survey.shortest_drawing = shortest_drawing_;
+  fit_ = fitOnCycles(levels_.back().grid, levels_.back().strokes,
+                     atPeriod(choice_.config, periods_.back(), shortest_drawing_), INT_MIN, INT_MAX);
+  // The position's offset refined by the free run: the finest level's grid read with it, and the refined
+  // parameters (fitted with it) studied.
+  const std::optional<OutputErrorFit> refined =
+      refinePositionDelay(model_, fit_, levels_.back().grid, periods_.back(), jobs_, choice_);
+  if (refined) {
+    Level& finest = levels_.back();
+    finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice_.position_delay_shift);
+    finest.strokes = segmentStrokes(finest.grid);
+  }
+  std::vector<std::string> uncertain;
+  const std::vector<std::string> implausible =
+      fit_.updates > 0 ? implausibleParameters(model_, fit_, 3.0, &uncertain) : std::vector<std::string>();
+  if (!implausible.empty()) outcome.implausible = implausible.front();
+  outcome.studied = fit_.updates > 0 && fit_.values().allFinite() && implausible.empty();
+  theta_ = !outcome.studied ? ParameterVector() : refined ? refined->theta : fit_.values();
+}
+
+// From 2 ms down, halving, until the free run stops changing or the recording's rate is reached; the
+// index of the period chosen.
+std::size_t ResolutionStudy::halveUntilSettled(double allowed_change, bool* resolved) {
+  for (std::size_t k = 0; k + 1 < periods_.size(); ++k) {
+    ResolutionCandidate& c = choice_.study.emplace_back();
+    c.sample_period = periods_[k];
+    c.simulation_error_rms = level(k).error_rms;
+    c.change_to_finer = changeBetween(level(k), level(k + 1), periods_[k + 1]);
+    if (std::isfinite(c.change_to_finer) && c.change_to_finer <= allowed_change) {
+      *resolved = true;
+      return k;
+    }
+  }
+  ResolutionCandidate& c = choice_.study.emplace_back();
+  c.sample_period = periods_.back();
+  c.simulation_error_rms = level(periods_.size() - 1).error_rms;
+  return periods_.size() - 1;
+}
+
+// The finest period the recording supports still changed, or nothing finer than 2 ms was possible: its own
+// error by Richardson's estimate from coarser periods, change / (2^q - 1), the order q from the last two
+// halvings (4 and 8 ms run for them where the study had fewer), between 1 and 4.
+void ResolutionStudy::judgeTheFinestPeriod(std::size_t chosen, double allowed_change, double noise,
+                                           double finest_interval, bool* resolved) {
+  std::vector<double> changes;  // coarsest first, ending with the change into the chosen period
+  for (const ResolutionCandidate& c : choice_.study) {
+    if (std::isfinite(c.change_to_finer)) changes.push_back(c.change_to_finer);
+  }
+  Level finer = level(0);
+  for (double coarse_period = 2.0 * kCoarsestPeriod; changes.size() < 2; coarse_period *= 2.0) {
+    Level coarse = levelAt(atPeriod(choice_.config, coarse_period, shortest_drawing_), messages_);
+    runFree(model_, theta_, choice_.config.min_pressure, &coarse);
+    changes.insert(changes.begin(), changeBetween(coarse, finer, finer.period));
+    finer = std::move(coarse);
+  }
+  const double last_change = changes.back(), earlier_change = changes[changes.size() - 2];
+  const Richardson estimate = richardson(last_change, earlier_change);
+  choice_.resolution_error = estimate.error;
+  // A free run that moves with its own tolerance as much as with the period, or whose change does not fall
+  // as the period halves, does not converge: that is the configured model failing (a fast press without
+  // its tank pressure ran 51 bar off, 10 bar from its own tolerance), not the grid. No resolution error is
+  // claimed, or it would excuse the missing effect ("resolution-limited: record at 462600 Hz").
+  const double numerical = numericalError(model_, theta_, choice_.config.min_pressure, &level(chosen));
+  const bool converging = !(numerical > kConvergingShare * last_change) &&
+                          !(std::isfinite(earlier_change) && earlier_change < kConvergingRatio * last_change);
+  const double chosen_period = periods_[chosen];
+  if (!converging) {
+    choice_.resolution_error = std::numeric_limits<double>::quiet_NaN();
+    choice_.resolution_not_converging = true;
+  } else if (choice_.resolution_error > allowed_change) {
+    // The period at which the error would fall to the allowed share, at the same order.
+    choice_.resolution_remedy = formatted("record pressure, position and valve at %.0f Hz or more",
+                                          recordingRate(estimate.stepFor(allowed_change, chosen_period)));
+    choice_.resolution_limit =
+        formatted("resolution-limited: at the finest sample period the recording supports (%.3g ms; its fastest "
+                  "topic comes every %.3g ms) the free run's own error is about %.2g bar (pressure noise %.2g "
+                  "bar); ",
+                  1e3 * chosen_period, 1e3 * finest_interval, 1e-5 * choice_.resolution_error, 1e-5 * noise) +
+        choice_.resolution_remedy;
+  } else {
+    *resolved = true;
+  }
+}
+
+StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double finest_interval,
+                                  double configured_period) {
+  StudyOutcome outcome;
+  identifyAtTheFinestPeriod(outcome);
+  outcome.shortest_drawing = shortest_drawing_;
+  if (!outcome.studied) {
+    outcome.chosen_period = outcome.implausible.empty() ? configured_period : periods_.back();
+    choice_.resolution_error = std::numeric_limits<double>::quiet_NaN();
+    return outcome;
+  }
+  const std::size_t chosen = halveUntilSettled(allowed_change, &outcome.resolved);
+  for (ResolutionCandidate& c : choice_.study) c.bulk_modulus = fit_.parameters[HydraulicModel::kBulkModulus].value;
+  outcome.chosen_period = periods_[chosen];
+  if (outcome.resolved) {
+    choice_.resolution_error = choice_.study[chosen].change_to_finer;
+  } else {
+    judgeTheFinestPeriod(chosen, allowed_change, noise, finest_interval, &outcome.resolved);
+  }
+  choice_.numerical_error = numericalError(model_, theta_, choice_.config.min_pressure, &level(chosen));
+  if (!choice_.resolution_not_converging) {
+    studyPositionRate(messages_, atPeriod(choice_.config, outcome.chosen_period, shortest_drawing_), model_, theta_,
+                      level(chosen), allowed_change, noise, choice_);
+  }
+  return outcome;
+}
+
+// Why the sample period is what it is, in words.
+std::string periodReason(const StudyOutcome& outcome, const SettingsChoice& choice, double finest_interval,
+                         double noise) {
+  if (!outcome.implausible.empty()) {
+    return formatted("the finest the recording supports (messages every %.3g ms), unstudied: the configured "
+                     "model's fit is implausible (",
+                     1e3 * finest_interval) +
+           outcome.implausible + "), so its free run cannot measure the grid's error";
+  }
+  if (!outcome.studied) return "the paper's value: the survey holds nothing to identify";
+  if (outcome.resolved) {
+    return formatted("the free run's own error there is %.3g bar, from how it changes as the period halves (the "
+                     "pressure noise is %.3g bar)",
+                     1e-5 * choice.resolution_error, 1e-5 * noise);
+  }
+  if (choice.resolution_not_converging) {
+    return formatted("the finest the recording supports (messages every %.3g ms); the configured model's free run "
+                     "does not converge as the period halves (its own numerical error %.2g bar): no resolution "
+                     "error is claimed, the model's error is the ranking's to explain",
+                     1e3 * finest_interval, 1e-5 * choice.numerical_error);
+  }
+  return formatted("the finest the recording supports (messages every %.3g ms); the free run's own error there is "
+                   "about %.2g bar (noise %.3g bar)",
+                   1e3 * finest_interval, 1e-5 * choice.resolution_error, 1e-5 * noise);
+}
+
+void addSetting(SettingsChoice& choice, const std::string& key, double value, const std::string& reason) {
+  ChosenSetting setting;
+  setting.key = key;
+  setting.value = value;
+  setting.reason = reason;
+  choice.settings.push_back(setting);
+}
+
+// The configured values are kept, and the sample period judged against the study.
+void keepConfigured(const IdentificationConfig& configured_config, const std::set<std::string>& configured,
+                    double allowed_change, double noise, double chosen_period, SettingsChoice& choice) {
+  IdentificationConfig& c = choice.config;
+  for (ChosenSetting& setting : choice.settings) {
+    if (!configured.count(setting.key)) continue;
+    setting.configured = true;
+    setting.reason = "configured";
+    if (setting.key == "sample_period") {
+      setting.value = configured_config.resampler.sample_period;
+      c.resampler.sample_period = setting.value;
+      for (const ResolutionCandidate& candidate : choice.study) {
+        if (std::abs(candidate.sample_period - setting.value) > 1e-12) continue;
+        const double change = candidate.change_to_finer;
+        if (std::isfinite(change) && change > allowed_change) {
+          choice.warnings.push_back(formatted("sample_period %.3g ms (configured) leaves a resolution error on this "
+                                              "recording: the free run changes by %.2g bar when it halves (pressure "
+                                              "noise %.2g bar); the analysis would choose %.3g ms. An error of the "
+                                              "grid can look like a missing effect: remove the key to let the "
+                                              "analysis choose",
+                                              1e3 * setting.value, 1e-5 * change, 1e-5 * noise, 1e3 * chosen_period));
+        }
+      }
+    } else if (setting.key == "moving_average_width") {
+      setting.value = c.moving_average_width = configured_config.moving_average_width;
+    } else if (setting.key == "derivative_width") {
+      setting.value = c.derivative_width = configured_config.derivative_width;
+    } else if (setting.key == "identification_period") {
+      setting.value = c.identification_period = configured_config.identification_period;
+    }
+  }
+}
+
+// The velocity where the position topic carries none: differentiated over two sample periods of the chosen
+// grid. Over the paper's 4 ms a fast press's 3-5 ms impact was smeared into 2.4 times the noise and a
+// "missing" tank pressure; over 2 ms (at 1 ms) 1.5 times and nothing missing. The study keeps one window at
+// every period, so that the derived velocity's noise is not read as the grid's error.
+void chooseVelocityWindow(const IdentificationConfig& configured_config, bool configured, SettingsChoice& choice) {
+  IdentificationConfig& c = choice.config;
+  ChosenSetting velocity;
+  velocity.key = "velocity_window";
+  velocity.configured = configured;
+  if (velocity.configured) {
+    c.velocity_window = std::max(configured_config.velocity_window, 2.0 * c.resampler.sample_period);
+    velocity.reason = "configured";
+  } else {
+    c.velocity_window = 2.0 * c.resampler.sample_period;
+    velocity.reason = "two sample periods: the derived velocity follows the impact as closely as the grid allows";
+  }
+  velocity.value = c.velocity_window;
+  choice.settings.push_back(velocity);
+}
+
+// A configured period changes what the others must be multiples of; windows longer than the shortest
+// drawing phase are warned of.
+void reconcile(double shortest_drawing, SettingsChoice& choice) {
+  IdentificationConfig& c = choice.config;
+  const double steps = c.identification_period / c.resampler.sample_period;
+  if (std::abs(steps - std::lround(steps)) > 1e-6) {
+    c.identification_period =
+        c.resampler.sample_period * std::max(1L, std::lround(kIdentificationPeriod / c.resampler.sample_period));
+  }
+  if (shortest_drawing > 0.0 &&
+      (c.moving_average_width + c.derivative_width - 1) * c.resampler.sample_period > shortest_drawing) {
+    choice.warnings.push_back(formatted("the filter windows (%.0f + %.0f samples of %.3g ms) are longer than the "
+                                        "shortest drawing phase (%.3g s): few rows lie wholly in it",
+                                        c.moving_average_width, c.derivative_width, 1e3 * c.resampler.sample_period,
+                                        shortest_drawing));
+  }
+}
+
+}  // namespace
+
+SettingsChoice SettingsFromRecording::choose() const {
+  const auto started = std::chrono::steady_clock::now();
+  SettingsChoice choice;
+  choice.config = config_;
+  std::vector<ValveSample> valve = surveyMessages(messages_, &choice.survey);
+  const RecordingSurvey& survey = choice.survey;
   const bool valve_configured = configured_.count("valve_natural_frequency") || configured_.count("valve_damping") ||
                                 configured_.count("valve_gain") || configured_.count("valve_dead_time");
-  if (!survey.spool_measured && !valve_configured) {
-    choice.warnings.push_back(formatted("the spool is not measured and no valve model is configured: the spool is "
-                                        "predicted by the default valve (%.0f Hz, damping %.2f, dead time %.2f ms), "
-                                        "and the free run is only as right as it. Configure the valve "
-                                        "(valve_natural_frequency, valve_damping, valve_gain, valve_dead_time) from "
-                                        "a sweep of this valve",
-                                        config_.valve.natural_frequency, config_.valve.damping,
-                                        1e3 * config_.valve.dead_time));
-  }
-
+  if (!survey.spool_measured && !valve_configured) choice.warnings.push_back(unmodelledSpoolWarning(config_.valve));
   // The valve model from the operation, fitted on the other core while the clock offsets are searched
   // (they read the measured spool, not the model's).
   std::future<ValveOperationFit> valve_fit;
@@ -372,25 +673,13 @@ SettingsChoice SettingsFromRecording::choose() const {
       return fitValveToOperation(valve, config_.valve, config_.resampler.max_gap);
     });
   }
-
-  // The resolution study: from the paper's 2 ms down, halving, never finer than the finest topic's messages
-  // (a grid between messages only interpolates them linearly, which undoes the free run's cubic inputs).
-  const double finest_interval = [&] {
-    double finest = std::numeric_limits<double>::infinity();
-    for (double i : survey.message_interval) {
-      if (i > 0.0) finest = std::min(finest, i);
-    }
-    return finest;
-  }();
+  double finest_interval = std::numeric_limits<double>::infinity();
+  for (double i : survey.message_interval) {
+    if (i > 0.0) finest_interval = std::min(finest_interval, i);
+  }
   const double noise = survey.pressure_noise > 0.0 ? survey.pressure_noise : 0.2e5;
   const double allowed_change = kResolutionShare * noise;
-  std::vector<double> periods;
-  for (double period = kCoarsestPeriod; period >= kFinestPeriod * (1.0 - 1e-9); period *= 0.5) {
-    if (std::isfinite(finest_interval) && period < 0.9 * finest_interval) break;
-    periods.push_back(period);
-  }
-  if (periods.empty()) periods.push_back(kCoarsestPeriod);
-
+  const std::vector<double> periods = studyPeriods(finest_interval);
   // The clock offsets, at the finest period (the study below then runs on corrected stamps).
   if (!config_.topicDelaysSet()) {
     IdentificationConfig finest = atPeriod(choice.config, periods.back(), 0.0);
@@ -402,238 +691,28 @@ SettingsChoice SettingsFromRecording::choose() const {
       choice.config.topic_delays = {0.0, 0.0, 0.0};
     }
   }
-  // The valve model that drives the free run and judges the port side: fitted to the operation where the
-  // spool is measured, unless it does not follow the spool better than the configured one.
-  if (valve_fit.valid()) {
-    choice.valve = valve_fit.get();
-    if (choice.valve->success && choice.valve->residual_rms < choice.valve->start_residual_rms) {
-      choice.config.valve = choice.valve->parameters;
-      choice.config.valve_model_drives_free_run = true;
-      choice.valve_from_operation = true;
-      if (valve_configured && choice.valve->start_residual_rms > 1.5 * choice.valve->noise_sigma) {
-        choice.warnings.push_back(
-            "the configured valve model does not follow the measured spool (" +
-            formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
-                      choice.valve->noise_sigma) +
-            "): the analysis uses the one fitted to the recording's operation instead (" + choice.valve->message + ")");
-      }
-    }
-  }
+  if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
 
-  // The model identified once, at the finest period, then run free at every period: how much the free run
-  // moves as the period halves is the grid's own error. (Each period's own fit moved with the period where the
-  // configured model lacked an effect: a missing tank pressure changed the free run by 0.75 bar between 2 and
-  // 1 ms; that is the model's error, told apart from the grid's by the ranking.)
-  std::vector<Level> levels(periods.size());
-  levels.back() = levelAt(atPeriod(choice.config, periods.back(), 0.0), messages_);
-  const double shortest_drawing = shortestDrawing(levels.back());
-  survey.cycles = levels.back().strokes.cycles;
-  survey.shortest_drawing = shortest_drawing;
-  const HydraulicEstimate fit = fitOnCycles(levels.back().grid, levels.back().strokes,
-                                      atPeriod(choice.config, periods.back(), shortest_drawing), INT_MIN, INT_MAX);
-  const HydraulicModel model =
-      HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
-  // The position's offset refined by the free run: the finest level's grid read with it, and the refined
-  // parameters (fitted with it) studied.
-  const std::optional<OutputErrorFit> refined = refinePositionDelay(model, fit, levels.back().grid, periods.back(), jobs_, choice);
-  if (refined) {
-    Level& finest = levels.back();
-    finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice.position_delay_shift);
-    finest.strokes = segmentStrokes(finest.grid);
-  }
-  // A configured model that lacks an effect the press has can fit to nonsense (a negative bulk modulus where
-  // the tank pressure is missing on a fast press); its free run then says nothing about the grid, and a
-  // resolution error read from it would hide the missing effect. Such a fit is not studied: the finest
-  // period the recording supports is taken, and no resolution error is claimed.
-  std::vector<std::string> uncertain;
-  const std::vector<std::string> implausible =
-      fit.updates > 0 ? implausibleParameters(model, fit, 3.0, &uncertain) : std::vector<std::string>();
-  const bool studied = fit.updates > 0 && fit.values().allFinite() && implausible.empty();
-  const ParameterVector theta = !studied ? ParameterVector() : refined ? refined->theta : fit.values();
-  const auto level = [&](std::size_t k) -> Level& {
-    if (levels[k].grid.empty()) levels[k] = levelAt(atPeriod(choice.config, periods[k], shortest_drawing), messages_);
-    if (levels[k].t.empty()) runFree(model, theta, choice.config.min_pressure, &levels[k]);
-    return levels[k];
-  };
-  std::size_t chosen = 0;
-  bool resolved = false;
-  if (studied) {
-    // From 2 ms down, halving, until the free run stops changing or the recording's rate is reached.
-    chosen = periods.size() - 1;
-    for (std::size_t k = 0; k + 1 < periods.size(); ++k) {
-      ResolutionCandidate& c = choice.study.emplace_back();
-      c.sample_period = periods[k];
-      c.simulation_error_rms = level(k).error_rms;
-      c.change_to_finer = changeBetween(level(k), level(k + 1), periods[k + 1]);
-      if (std::isfinite(c.change_to_finer) && c.change_to_finer <= allowed_change) {
-        chosen = k;
-        resolved = true;
-        break;
-      }
-    }
-    if (!resolved) {
-      ResolutionCandidate& c = choice.study.emplace_back();
-      c.sample_period = periods.back();
-      c.simulation_error_rms = level(periods.size() - 1).error_rms;
-    }
-    for (ResolutionCandidate& c : choice.study) c.bulk_modulus = fit.parameters[HydraulicModel::kBulkModulus].value;
-  }
-  const double chosen_period =
-      studied ? periods[chosen] : (implausible.empty() ? config_.resampler.sample_period : periods.back());
-  if (resolved) {
-    choice.resolution_error = choice.study[chosen].change_to_finer;
-  } else if (studied) {
-    // The finest period the recording supports still changed, or nothing finer than 2 ms was possible: its
-    // own error by Richardson's estimate from coarser periods, change / (2^q - 1), the order q from the last
-    // two halvings (4 and 8 ms run for them where the study had fewer), between 1 and 4.
-    std::vector<double> changes;  // coarsest first, ending with the change into the chosen period
-    for (const ResolutionCandidate& c : choice.study) {
-      if (std::isfinite(c.change_to_finer)) changes.push_back(c.change_to_finer);
-    }
-    Level finer = level(0);
-    for (double coarse_period = 2.0 * kCoarsestPeriod; changes.size() < 2; coarse_period *= 2.0) {
-      Level coarse = levelAt(atPeriod(choice.config, coarse_period, shortest_drawing), messages_);
-      runFree(model, theta, choice.config.min_pressure, &coarse);
-      changes.insert(changes.begin(), changeBetween(coarse, finer, finer.period));
-      finer = std::move(coarse);
-    }
-    const double last_change = changes.back(), earlier_change = changes[changes.size() - 2];
-    const Richardson estimate = richardson(last_change, earlier_change);
-    choice.resolution_error = estimate.error;
-    // A free run that moves with its own tolerance as much as with the period, or whose change does not
-    // fall as the period halves, does not converge: that is the configured model failing (a fast press
-    // without its tank pressure ran 51 bar off, 10 bar from its own tolerance), not the grid. No resolution
-    // error is claimed, or it would excuse the missing effect ("resolution-limited: record at 462600 Hz").
-    const double numerical = numericalError(model, theta, choice.config.min_pressure, &level(chosen));
-    const bool converging = !(numerical > kConvergingShare * last_change) &&
-                            !(std::isfinite(earlier_change) && earlier_change < kConvergingRatio * last_change);
-    if (!converging) {
-      choice.resolution_error = std::numeric_limits<double>::quiet_NaN();
-      choice.resolution_not_converging = true;
-    } else if (choice.resolution_error > allowed_change) {
-      // The period at which the error would fall to the allowed share, at the same order.
-      choice.resolution_remedy = formatted("record pressure, position and valve at %.0f Hz or more",
-                                           recordingRate(estimate.stepFor(allowed_change, chosen_period)));
-      choice.resolution_limit = formatted(
-          "resolution-limited: at the finest sample period the recording supports (%.3g ms; its fastest topic "
-          "comes every %.3g ms) the free run's own error is about %.2g bar (pressure noise %.2g bar); ",
-          1e3 * chosen_period, 1e3 * finest_interval, 1e-5 * choice.resolution_error, 1e-5 * noise) +
-                                choice.resolution_remedy;
-    } else {
-      resolved = true;
-    }
-  } else {
-    choice.resolution_error = std::numeric_limits<double>::quiet_NaN();
-  }
-  if (studied) choice.numerical_error = numericalError(model, theta, choice.config.min_pressure, &level(chosen));
-  if (studied && !choice.resolution_not_converging) {
-    studyPositionRate(messages_, atPeriod(choice.config, chosen_period, shortest_drawing), model, theta, level(chosen),
-                      allowed_change, noise, choice);
-  }
-  const IdentificationConfig chosen_config = atPeriod(choice.config, chosen_period, shortest_drawing);
-  std::string period_reason;
-  if (!implausible.empty()) {
-    period_reason = formatted("the finest the recording supports (messages every %.3g ms), unstudied: the configured "
-                              "model's fit is implausible (",
-                              1e3 * finest_interval) +
-                    implausible.front() + "), so its free run cannot measure the grid's error";
-  } else if (!studied) {
-    period_reason = "the paper's value: the survey holds nothing to identify";
-  } else if (resolved) {
-    period_reason = formatted("the free run's own error there is %.3g bar, from how it changes as the period "
-                              "halves (the pressure noise is %.3g bar)",
-                              1e-5 * choice.resolution_error, 1e-5 * noise);
-  } else if (choice.resolution_not_converging) {
-    period_reason = formatted("the finest the recording supports (messages every %.3g ms); the configured model's "
-                              "free run does not converge as the period halves (its own numerical error %.2g bar): "
-                              "no resolution error is claimed, the model's error is the ranking's to explain",
-                              1e3 * finest_interval, 1e-5 * choice.numerical_error);
-  } else {
-    period_reason = formatted("the finest the recording supports (messages every %.3g ms); the free run's own "
-                              "error there is about %.2g bar (noise %.3g bar)",
-                              1e3 * finest_interval, 1e-5 * choice.resolution_error, 1e-5 * noise);
-  }
-  const auto add = [&](const std::string& key, double chosen_value, const std::string& reason) {
-    ChosenSetting setting;
-    setting.key = key;
-    setting.value = chosen_value;
-    setting.reason = reason;
-    choice.settings.push_back(setting);
-  };
-  add("sample_period", chosen_period, period_reason);
+  ResolutionStudy study(messages_, periods, jobs_, choice);
+  const StudyOutcome outcome = study.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
+  const IdentificationConfig chosen = atPeriod(choice.config, outcome.chosen_period, outcome.shortest_drawing);
+  addSetting(choice, "sample_period", outcome.chosen_period, periodReason(outcome, choice, finest_interval, noise));
   const std::string window_reason =
-      chosen_config.moving_average_width == oddSamples(kMovingAverageWindow, chosen_period, 1)
+      chosen.moving_average_width == oddSamples(kMovingAverageWindow, outcome.chosen_period, 1)
           ? "the paper's window in time (62 ms moving average, 50 ms derivative)"
-          : formatted("the paper's windows shortened to half the shortest drawing phase (%.3g s)", shortest_drawing);
-  add("moving_average_width", chosen_config.moving_average_width, window_reason);
-  add("derivative_width", chosen_config.derivative_width, window_reason);
-  add("identification_period", chosen_config.identification_period, "the paper's 10 ms, a whole number of samples");
-
-  // The configured values are kept, and judged.
-  IdentificationConfig& c = choice.config;
-  c.resampler.sample_period = chosen_config.resampler.sample_period;
-  c.moving_average_width = chosen_config.moving_average_width;
-  c.derivative_width = chosen_config.derivative_width;
-  c.identification_period = chosen_config.identification_period;
-  for (ChosenSetting& setting : choice.settings) {
-    if (!configured_.count(setting.key)) continue;
-    setting.configured = true;
-    if (setting.key == "sample_period") {
-      setting.value = config_.resampler.sample_period;
-      c.resampler.sample_period = setting.value;
-      setting.reason = "configured";
-      for (std::size_t k = 0; k < choice.study.size(); ++k) {
-        if (std::abs(choice.study[k].sample_period - setting.value) > 1e-12) continue;
-        const double change = choice.study[k].change_to_finer;
-        if (std::isfinite(change) && change > allowed_change) {
-          choice.warnings.push_back(formatted("sample_period %.3g ms (configured) leaves a resolution error on this "
-                                              "recording: the free run changes by %.2g bar when it halves (pressure "
-                                              "noise %.2g bar); the analysis would choose %.3g ms. An error of the "
-                                              "grid can look like a missing effect: remove the key to let the "
-                                              "analysis choose",
-                                              1e3 * setting.value, 1e-5 * change, 1e-5 * noise, 1e3 * chosen_period));
-        }
-      }
-    } else if (setting.key == "moving_average_width") {
-      setting.value = config_.moving_average_width;
-      c.moving_average_width = config_.moving_average_width;
-      setting.reason = "configured";
-    } else if (setting.key == "derivative_width") {
-      setting.value = config_.derivative_width;
-      c.derivative_width = config_.derivative_width;
-      setting.reason = "configured";
-    } else if (setting.key == "identification_period") {
-      setting.value = config_.identification_period;
-      c.identification_period = config_.identification_period;
-      setting.reason = "configured";
-    }
-  }
-  // The velocity where the position topic carries none: differentiated over two sample periods of the chosen
-  // grid. Over the paper's 4 ms a fast press's 3-5 ms impact was smeared into 2.4 times the noise and a
-  // "missing" tank pressure; over 2 ms (at 1 ms) 1.5 times and nothing missing. The study above keeps one
-  // window at every period, so that the derived velocity's noise is not read as the grid's error.
-  ChosenSetting velocity;
-  velocity.key = "velocity_window";
-  velocity.configured = configured_.count("velocity_window") > 0;
-  if (velocity.configured) {
-    c.velocity_window = std::max(config_.velocity_window, 2.0 * c.resampler.sample_period);
-    velocity.reason = "configured";
-  } else {
-    c.velocity_window = 2.0 * c.resampler.sample_period;
-    velocity.reason = "two sample periods: the derived velocity follows the impact as closely as the grid allows";
-  }
-  velocity.value = c.velocity_window;
-  choice.settings.push_back(velocity);
-  // A configured period changes what the others must be multiples of.
-  if (std::abs(c.identification_period / c.resampler.sample_period - std::lround(c.identification_period / c.resampler.sample_period)) > 1e-6) {
-    c.identification_period = c.resampler.sample_period * std::max(1L, std::lround(kIdentificationPeriod / c.resampler.sample_period));
-  }
-  if (shortest_drawing > 0.0 && (c.moving_average_width + c.derivative_width - 1) * c.resampler.sample_period > shortest_drawing) {
-    choice.warnings.push_back(formatted("the filter windows (%.0f + %.0f samples of %.3g ms) are longer than the shortest "
-                                        "drawing phase (%.3g s): few rows lie wholly in it",
-                                        c.moving_average_width, c.derivative_width, 1e3 * c.resampler.sample_period,
-                                        shortest_drawing));
-  }
+          : formatted("the paper's windows shortened to half the shortest drawing phase (%.3g s)",
+                      outcome.shortest_drawing);
+  addSetting(choice, "moving_average_width", chosen.moving_average_width, window_reason);
+  addSetting(choice, "derivative_width", chosen.derivative_width, window_reason);
+  addSetting(choice, "identification_period", chosen.identification_period,
+             "the paper's 10 ms, a whole number of samples");
+  choice.config.resampler.sample_period = chosen.resampler.sample_period;
+  choice.config.moving_average_width = chosen.moving_average_width;
+  choice.config.derivative_width = chosen.derivative_width;
+  choice.config.identification_period = chosen.identification_period;
+  keepConfigured(config_, configured_, allowed_change, noise, outcome.chosen_period, choice);
+  chooseVelocityWindow(config_, configured_.count("velocity_window") > 0, choice);
+  reconcile(outcome.shortest_drawing, choice);
   choice.seconds_spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return choice;
 }
