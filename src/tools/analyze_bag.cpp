@@ -291,106 +291,74 @@ std::string milliseconds(double seconds) {
   return text;
 }
 
-int run(int argc, char** argv) {
-  const Options options = parseArguments(argc, argv);
-  const auto log = [&](const std::string& line) {
-    if (!options.quiet) std::cerr << "analyze_bag: " << line << "\n";
-  };
-
+// The configuration file and the command line's model, checked; warnings for the geometry left at defaults.
+struct Configuration {
   IdentificationConfig config;
   InputTopics topics;
-  std::vector<std::string> keys;
+  std::vector<std::string> keys;  // given in the file
+};
+
+Configuration loadConfiguration(const Options& options, std::vector<std::string>* warnings) {
+  Configuration c;
   if (!options.config.empty()) {
-    const auto problems = loadAnalysisConfig(options.config, &config, &topics, &keys);
+    const auto problems = loadAnalysisConfig(options.config, &c.config, &c.topics, &c.keys);
     if (!problems.empty()) {
       std::string all;
       for (const auto& p : problems) all += "\n  " + p;
       fail(2, "invalid configuration in " + options.config + ":" + all);
     }
   }
-  if (options.effects_given) config.effects = options.effects;
-  for (const auto& c : options.custom_effects) config.custom_effects.push_back(c);
-  std::vector<std::string> warnings;
+  if (options.effects_given) c.config.effects = options.effects;
+  for (const auto& custom : options.custom_effects) c.config.custom_effects.push_back(custom);
   for (const char* key : {"piston_area", "stroke_length", "supply_pressure"}) {
-    if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
-      warnings.push_back(std::string("geometry key '") + key +
-                         "' not configured: the default of doc/configuration.md is used");
+    if (std::find(c.keys.begin(), c.keys.end(), key) == c.keys.end()) {
+      warnings->push_back(std::string("geometry key '") + key +
+                          "' not configured: the default of doc/configuration.md is used");
     }
   }
-  {
-    const auto problems = config.validate();
-    if (!problems.empty()) {
-      std::string all;
-      for (const auto& p : problems) all += "\n  " + p;
-      fail(2, "invalid configuration:" + all);
-    }
+  const auto problems = c.config.validate();
+  if (!problems.empty()) {
+    std::string all;
+    for (const auto& p : problems) all += "\n  " + p;
+    fail(2, "invalid configuration:" + all);
   }
+  return c;
+}
 
-  // The three inputs, by name (types and presence are checked while reading).
-  const std::string names[kInputStreamCount] = {topics.pressure, topics.position, topics.valve};
-  bool partial = false;
-
-  AnalysisInput input;
-  input.bag = options.bag;
-  input.joint_name = topics.joint_name;
-  for (int s = 0; s < kInputStreamCount; ++s) input.topics[s] = names[s];
-  const auto started = std::chrono::steady_clock::now();
-
-  const std::set<std::string> configured(keys.begin(), keys.end());
-  SurveyThenAnalysis surveyed(config, configured, !options.fixed_settings, options.jobs, log);
-  BagPass pass = readInputs(options.bag, names, topics.joint_name, surveyed, input, log);
-  OfflineAnalysis* analysis = &surveyed.analysis();
-  config = surveyed.config();
-  std::unique_ptr<SurveyThenAnalysis> reread;  // without a survey: the settings are chosen already
+// A bag without any input, or without the cushion's joint, cannot be analysed.
+void failIfNothingToAnalyse(const BagPass& pass, const std::string (&names)[kInputStreamCount],
+                            const AnalysisInput& input, const std::string& bag) {
   if (pass.present.empty()) {
-    fail(3, "none of the input topics " + names[0] + ", " + names[1] + ", " + names[2] + " is in '" + options.bag +
+    fail(3, "none of the input topics " + names[0] + ", " + names[1] + ", " + names[2] + " is in '" + bag +
                 "'; it holds:" + (pass.listing.empty() ? std::string("\n  (nothing: the bag is empty)") : pass.listing) +
                 (pass.read_error.empty() ? std::string() : "\n(reading stopped: " + pass.read_error + ")"));
   }
   if (input.messages[1] > 0 && pass.joint_missing == input.messages[1]) {
     fail(3, "no position message holds the cushion's joint: " + pass.joint_problem);
   }
-  // Topics stamped by different clocks: the survey estimated the offsets on the recording's first seconds
-  // and the analysis ran on corrected stamps. Without a survey (or where it could not tell), they are
-  // estimated on the whole recording, which is read again with the stamps corrected where they matter.
-  std::optional<TopicDelayEstimate> delays;
-  bool delays_applied = false;
-  if (surveyed.choice() && surveyed.choice()->delays && surveyed.choice()->delays->valid) {
-    delays = surveyed.choice()->delays;
-    delays_applied = surveyed.choice()->delays_applied;
-  } else if (!config.topicDelaysSet()) {
-    log("estimating the clock offsets between the topics");
-    delays = analysis->estimateTopicDelays();
-    if (delays->significant(config.resampler.sample_period)) {
-      delays_applied = true;
-      config.topic_delays = delays->delays;
-      log("position stamps " + milliseconds(delays->delays[1]) + ", valve stamps " +
-          milliseconds(delays->delays[2]) + " against pressure: reading again with the stamps corrected");
-      reread = std::make_unique<SurveyThenAnalysis>(config, configured, false, options.jobs, log);
-      pass = readInputs(options.bag, names, topics.joint_name, *reread, input, log);
-      analysis = &reread->analysis();
-    }
-  }
-  input.duration = std::isfinite(pass.last - pass.first) ? pass.last - pass.first : 0.0;
-  input.start = std::isfinite(pass.first) ? pass.first : 0.0;
+}
+
+// What the reading skipped, lost or could not read, in words; true where the result is partial.
+bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStreamCount],
+                     std::vector<std::string>* warnings, const std::function<void(const std::string&)>& log) {
   for (int s = 0; s < kInputStreamCount; ++s) {
-    if (!pass.present.count(names[s])) warnings.push_back("topic " + names[s] + " is not in the bag");
+    if (!pass.present.count(names[s])) warnings->push_back("topic " + names[s] + " is not in the bag");
   }
   if (pass.mismatched > 0) {
-    warnings.push_back(std::to_string(pass.mismatched) +
-                       " messages had a different definition (md5sum) than this package's and were skipped");
+    warnings->push_back(std::to_string(pass.mismatched) +
+                        " messages had a different definition (md5sum) than this package's and were skipped");
   }
   if (pass.damaged > 0) {
-    warnings.push_back(std::to_string(pass.damaged) + " messages were damaged (their bytes do not decode) and skipped");
+    warnings->push_back(std::to_string(pass.damaged) + " messages were damaged (their bytes do not decode) and skipped");
   }
   if (pass.joint_missing > 0) {
-    warnings.push_back(std::to_string(pass.joint_missing) + " position messages skipped: " + pass.joint_problem);
+    warnings->push_back(std::to_string(pass.joint_missing) + " position messages skipped: " + pass.joint_problem);
   }
   if (pass.without_position > 0) {
-    warnings.push_back(std::to_string(pass.without_position) +
-                       " position messages without a position for the cushion's joint were skipped");
+    warnings->push_back(std::to_string(pass.without_position) +
+                        " position messages without a position for the cushion's joint were skipped");
   }
-  if (!pass.joint_ambiguity.empty()) warnings.push_back(pass.joint_ambiguity);
+  if (!pass.joint_ambiguity.empty()) warnings->push_back(pass.joint_ambiguity);
   if (!pass.damage.empty()) {
     // Damage names where it is, so that the recording (or its copy) can be checked there.
     std::string where;
@@ -406,86 +374,85 @@ int run(int argc, char** argv) {
                                         : std::string("the messages")) +
              " were lost in the damaged parts; the reading went on at the next record that holds together";
     }
-    warnings.push_back("the bag is damaged (" + where + "): " + lost + ", and what was read is analysed");
+    warnings->push_back("the bag is damaged (" + where + "): " + lost + ", and what was read is analysed");
+    log(warnings->back());
+    return true;
+  }
+  if (pass.read_error.empty()) return false;
+  bool partial = false;
+  if (pass.cut_off && !pass.data_lost) {
+    // Every message was read; only the index behind them is gone.
+    warnings->push_back("the bag lost its index (" + pass.read_error + "): every message was read from its chunks");
+  } else {
+    char share[64];
+    std::snprintf(share, sizeof(share), "%.1f", 100.0 * pass.bytes_read / std::max<std::uint64_t>(pass.file_size, 1));
+    warnings->push_back(pass.cut_off ? "the bag was cut off while recording (" + pass.read_error +
+                                           "): the analysis covers what was recorded before the cut"
+                                     : "the bag could not be read to the end (" + pass.read_error +
+                                           "): the analysis covers the first " + share +
+                                           " % of it, read before the damage");
     partial = true;
-    log(warnings.back());
-  } else if (!pass.read_error.empty()) {
-    if (pass.cut_off && !pass.data_lost) {
-      // Every message was read; only the index behind them is gone.
-      warnings.push_back("the bag lost its index (" + pass.read_error + "): every message was read from its chunks");
-    } else {
-      char share[64];
-      std::snprintf(share, sizeof(share), "%.1f", 100.0 * pass.bytes_read / std::max<std::uint64_t>(pass.file_size, 1));
-      warnings.push_back(pass.cut_off ? "the bag was cut off while recording (" + pass.read_error +
-                                            "): the analysis covers what was recorded before the cut"
-                                      : "the bag could not be read to the end (" + pass.read_error +
-                                            "): the analysis covers the first " + share +
-                                            " % of it, read before the damage");
-      partial = true;
-    }
-    log(warnings.back());
   }
+  log(warnings->back());
+  return partial;
+}
 
-  analysis->proposeAlways(options.propose);
-  if (surveyed.choice()) analysis->setResolution(surveyed.choice()->resolution_error, surveyed.choice()->resolution_remedy);
-  const auto tell = [&](const std::string& step) {
-    char elapsed[32];
-    std::snprintf(elapsed, sizeof(elapsed), "%.1f s: ",
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
-    log(elapsed + step);
-  };
-  OfflineResult result = analysis->identify(tell);
-  // The estimates and the model comparison are final: written out while the effects are ranked.
-  if (!makeDirectory(options.out)) fail(4, "cannot create output directory '" + options.out + "'");
-  std::unique_ptr<AnalysisWriter> writer;
-  try {
-    writer = std::make_unique<AnalysisWriter>(options.out, config, result, analysis->grid());
-  } catch (const std::exception& e) {
-    fail(4, std::string("cannot write the results: ") + e.what());
+// The clock offsets estimated on the whole recording; where they matter, they are set in `config` for a
+// second reading.
+TopicDelayEstimate estimateClockOffsets(OfflineAnalysis& analysis, IdentificationConfig* config,
+                                        const std::function<void(const std::string&)>& log) {
+  log("estimating the clock offsets between the topics");
+  const TopicDelayEstimate delays = analysis.estimateTopicDelays();
+  if (delays.significant(config->resampler.sample_period)) {
+    config->topic_delays = delays.delays;
+    log("position stamps " + milliseconds(delays.delays[1]) + ", valve stamps " + milliseconds(delays.delays[2]) +
+        " against pressure: reading again with the stamps corrected");
   }
-  analysis->explain(&result, tell);
-  result.warnings.insert(result.warnings.begin(), warnings.begin(), warnings.end());
-  if (surveyed.choice()) {
-    result.settings = surveyed.choice();
-    for (const auto& w : result.settings->warnings) result.warnings.push_back(w);
-    if (!result.settings->resolution_limit.empty()) result.warnings.push_back(result.settings->resolution_limit);
-    if (result.settings->valve_from_operation && result.valve_model_source == "configured") {
-      result.valve_model_source = "operation";
-    }
+  return delays;
+}
+
+// The settings chosen from the recording, with their warnings.
+void reportSettings(const std::optional<SettingsChoice>& choice, OfflineResult* result) {
+  if (!choice) return;
+  result->settings = choice;
+  for (const auto& w : choice->warnings) result->warnings.push_back(w);
+  if (!choice->resolution_limit.empty()) result->warnings.push_back(choice->resolution_limit);
+  if (choice->valve_from_operation && result->valve_model_source == "configured") {
+    result->valve_model_source = "operation";
   }
-  if (delays) {
-    result.delay_estimate = delays;
-    if (delays->valid) {
-      // Offsets the data cannot tell from 0 are reported but not corrected.
-      result.topic_delays_source = delays_applied ? "estimated" : "estimated, indistinguishable from 0: not corrected";
-      for (int s = 1; s < kInputStreamCount; ++s) {
-        if (std::abs(delays->delays[s]) > kLargeTopicDelay && delays_applied) {
-          result.warnings.push_back(std::string("the ") + inputStreamName(static_cast<InputStream>(s)) +
-                                    " topic's stamps are " + milliseconds(delays->delays[s]) +
-                                    " off the pressure's (estimated from the data and corrected): its "
-                                    "driver stamps on receipt or by another clock; set topic_delays to "
-                                    "fix the value, or stamp at the measurement");
-        } else if (std::abs(delays->delays[s]) > kLargeTopicDelay) {
-          result.warnings.push_back(std::string("the ") + inputStreamName(static_cast<InputStream>(s)) +
-                                    " topic's stamps look " + milliseconds(delays->delays[s]) +
-                                    " off the pressure's, but the recording cannot tell that from none (+-" +
-                                    milliseconds(delays->resolution[s]).substr(1) +
-                                    "): not corrected; set topic_delays if you know the offset");
-        }
-      }
+}
+
+// The topics' clock offsets: where they come from, and a warning for each large one.
+void reportClockOffsets(const std::optional<TopicDelayEstimate>& delays, bool applied, OfflineResult* result) {
+  if (!delays) return;
+  result->delay_estimate = delays;
+  if (!delays->valid) {
+    result->warnings.push_back("the clock offsets between the topics could not be estimated (" + delays->message +
+                               "): the stamps are used as recorded");
+    return;
+  }
+  // Offsets the data cannot tell from 0 are reported but not corrected.
+  result->topic_delays_source = applied ? "estimated" : "estimated, indistinguishable from 0: not corrected";
+  for (int s = 1; s < kInputStreamCount; ++s) {
+    if (!(std::abs(delays->delays[s]) > kLargeTopicDelay)) continue;
+    const std::string topic = std::string("the ") + inputStreamName(static_cast<InputStream>(s));
+    if (applied) {
+      result->warnings.push_back(topic + " topic's stamps are " + milliseconds(delays->delays[s]) +
+                                 " off the pressure's (estimated from the data and corrected): its "
+                                 "driver stamps on receipt or by another clock; set topic_delays to "
+                                 "fix the value, or stamp at the measurement");
     } else {
-      result.warnings.push_back("the clock offsets between the topics could not be estimated (" +
-                                delays->message + "): the stamps are used as recorded");
+      result->warnings.push_back(topic + " topic's stamps look " + milliseconds(delays->delays[s]) +
+                                 " off the pressure's, but the recording cannot tell that from none (+-" +
+                                 milliseconds(delays->resolution[s]).substr(1) +
+                                 "): not corrected; set topic_delays if you know the offset");
     }
   }
-  tell("writing the results");
-  try {
-    writer->finish(input, result);
-  } catch (const std::exception& e) {
-    writer.reset();  // removes what it wrote under temporary names (fail() exits without unwinding)
-    fail(4, std::string("cannot write the results: ") + e.what());
-  }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+}
+
+// The end of the log: warnings, conclusion and speed; the exit code (5 for a partial result).
+int finishLog(const OfflineResult& result, bool partial, double seconds, const Options& options,
+              const std::function<void(const std::string&)>& log) {
   for (const auto& w : result.warnings) log("warning: " + w);
   log("simulation error " + std::to_string(result.assessment.simulation_error_rms * 1e-5) + " bar rms; " +
       result.ranking.conclusion);
@@ -495,13 +462,106 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(result.messages),
                 result.messages / std::max(seconds, 1e-9) / 1e6, options.out.c_str());
   log(speed);
-  if (partial || result.partial) {
-    std::cerr << "analyze_bag: partial result: " << (result.partial ? "part of the analysis could not run"
-                                                                     : "the bag could not be read completely")
-              << "; see the warnings in summary.yaml\n";
-    return 5;
+  if (!partial && !result.partial) return 0;
+  std::cerr << "analyze_bag: partial result: " << (result.partial ? "part of the analysis could not run"
+                                                                   : "the bag could not be read completely")
+            << "; see the warnings in summary.yaml\n";
+  return 5;
+}
+
+// What the reading found, for the summary.
+struct ReadingFindings {
+  std::vector<std::string> warnings;
+  std::optional<SettingsChoice> settings;
+  std::optional<TopicDelayEstimate> delays;
+  bool delays_applied = false;
+  bool partial = false;  // the bag could not be read completely
+};
+
+// Identifies; writes the estimates out while the effects are ranked, then the rest; the exit code.
+int analyseAndWrite(OfflineAnalysis& analysis, const Options& options, const IdentificationConfig& config,
+                    const AnalysisInput& input, const ReadingFindings& found,
+                    std::chrono::steady_clock::time_point started, const std::function<void(const std::string&)>& log) {
+  const auto tell = [&](const std::string& step) {  // the log with the time since the start
+    char elapsed[32];
+    std::snprintf(elapsed, sizeof(elapsed), "%.1f s: ",
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+    log(elapsed + step);
+  };
+  OfflineResult result = analysis.identify(tell);
+  // The estimates and the model comparison are final: written out while the effects are ranked.
+  if (!makeDirectory(options.out)) fail(4, "cannot create output directory '" + options.out + "'");
+  std::unique_ptr<AnalysisWriter> writer;
+  try {
+    writer = std::make_unique<AnalysisWriter>(options.out, config, result, analysis.grid());
+  } catch (const std::exception& e) {
+    fail(4, std::string("cannot write the results: ") + e.what());
   }
-  return 0;
+  analysis.explain(&result, tell);
+  result.warnings.insert(result.warnings.begin(), found.warnings.begin(), found.warnings.end());
+  reportSettings(found.settings, &result);
+  reportClockOffsets(found.delays, found.delays_applied, &result);
+  tell("writing the results");
+  try {
+    writer->finish(input, result);
+  } catch (const std::exception& e) {
+    writer.reset();  // removes what it wrote under temporary names (fail() exits without unwinding)
+    fail(4, std::string("cannot write the results: ") + e.what());
+  }
+  return finishLog(result, found.partial,
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(), options, log);
+}
+
+int run(int argc, char** argv) {
+  const Options options = parseArguments(argc, argv);
+  const std::function<void(const std::string&)> log = [&](const std::string& line) {
+    if (!options.quiet) std::cerr << "analyze_bag: " << line << "\n";
+  };
+  std::vector<std::string> warnings;
+  Configuration configuration = loadConfiguration(options, &warnings);
+  IdentificationConfig& config = configuration.config;
+  const InputTopics& topics = configuration.topics;
+
+  // The three inputs, by name (types and presence are checked while reading).
+  const std::string names[kInputStreamCount] = {topics.pressure, topics.position, topics.valve};
+  AnalysisInput input;
+  input.bag = options.bag;
+  input.joint_name = topics.joint_name;
+  for (int s = 0; s < kInputStreamCount; ++s) input.topics[s] = names[s];
+  const auto started = std::chrono::steady_clock::now();
+
+  const std::set<std::string> configured(configuration.keys.begin(), configuration.keys.end());
+  SurveyThenAnalysis surveyed(config, configured, !options.fixed_settings, options.jobs, log);
+  BagPass pass = readInputs(options.bag, names, topics.joint_name, surveyed, input, log);
+  OfflineAnalysis* analysis = &surveyed.analysis();
+  config = surveyed.config();
+  failIfNothingToAnalyse(pass, names, input, options.bag);
+  // Topics stamped by different clocks: the survey estimated the offsets on the recording's first seconds
+  // and the analysis ran on corrected stamps. Without a survey (or where it could not tell), they are
+  // estimated on the whole recording, which is read again with the stamps corrected where they matter.
+  std::optional<TopicDelayEstimate> delays;
+  bool delays_applied = false;
+  std::unique_ptr<SurveyThenAnalysis> reread;  // without a survey: the settings are chosen already
+  if (surveyed.choice() && surveyed.choice()->delays && surveyed.choice()->delays->valid) {
+    delays = surveyed.choice()->delays;
+    delays_applied = surveyed.choice()->delays_applied;
+  } else if (!config.topicDelaysSet()) {
+    delays = estimateClockOffsets(*analysis, &config, log);
+    delays_applied = delays->significant(config.resampler.sample_period);
+    if (delays_applied) {
+      reread = std::make_unique<SurveyThenAnalysis>(config, configured, false, options.jobs, log);
+      pass = readInputs(options.bag, names, topics.joint_name, *reread, input, log);
+      analysis = &reread->analysis();
+    }
+  }
+  input.duration = std::isfinite(pass.last - pass.first) ? pass.last - pass.first : 0.0;
+  input.start = std::isfinite(pass.first) ? pass.first : 0.0;
+  const bool partial = readingWarnings(pass, names, &warnings, log);
+
+  analysis->proposeAlways(options.propose);
+  if (surveyed.choice()) analysis->setResolution(surveyed.choice()->resolution_error, surveyed.choice()->resolution_remedy);
+  return analyseAndWrite(*analysis, options, config, input, {warnings, surveyed.choice(), delays, delays_applied, partial},
+                         started, log);
 }
 
 }  // namespace
