@@ -191,7 +191,7 @@ void OfflineAnalysis::endInput() {
 
 TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
   endInput();
-  return die_cushion_ident::estimateTopicDelays(grid_, config_, jobs_);
+  return die_cushion_ident::estimateTopicDelays(grid_, config_);
 }
 
 OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string&)>& progress) {

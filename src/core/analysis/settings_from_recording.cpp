@@ -683,7 +683,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   // The clock offsets, at the finest period (the study below then runs on corrected stamps).
   if (!config_.topicDelaysSet()) {
     IdentificationConfig finest = atPeriod(choice.config, periods.back(), 0.0);
-    choice.delays = estimateTopicDelays(gridAt(finest, messages_), finest, jobs_);
+    choice.delays = estimateTopicDelays(gridAt(finest, messages_), finest);
     if (choice.delays->valid && choice.delays->distinguishable()) {
       choice.config.topic_delays = choice.delays->delays;
       choice.delays_applied = true;

@@ -6,7 +6,6 @@
 #include <limits>
 
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
-#include "die_cushion_ident/core/util/parallel_for.h"
 
 namespace die_cushion_ident {
 
@@ -423,8 +422,8 @@ bool TopicDelayEstimate::significant(double sample_period) const {
   return false;
 }
 
-TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config,
-                                       int jobs) {
+TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
+                                       const IdentificationConfig& config) {
   TopicDelayEstimate e;
   const double dt = config.resampler.sample_period;
   const std::size_t window = std::max<std::size_t>(2, std::lround(kWindow / dt));
@@ -515,30 +514,24 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
     double position, valve, cost;
     LineSearch x_search, v_search;
   };
-  const auto refineOn = [](const BalanceCost& balance, Refined r, double range) {
+  const auto refine = [&](Refined r, double range) {
     const LineSearch both =
-        searchShift([&](double shift) { return balance.cost(r.position + shift, r.valve + shift); }, range);
+        searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve + shift); }, range);
     r.position += both.best;
     r.valve += both.best;
-    r.x_search = searchShift([&](double shift) { return balance.cost(r.position + shift, r.valve); }, range);
+    r.x_search = searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve); }, range);
     r.position += r.x_search.best;
-    r.v_search = searchShift([&](double shift) { return balance.cost(r.position, r.valve + shift); }, range);
+    r.v_search = searchShift([&](double shift) { return cost.cost(r.position, r.valve + shift); }, range);
     r.valve += r.v_search.best;
-    r.cost = balance.cost(r.position, r.valve);
+    r.cost = cost.cost(r.position, r.valve);
     return r;
   };
-  // The basins' first rounds are independent: each on its own copy of the cost (its parts cache is its
-  // own), in parallel where asked; the lowest is then chosen in the basins' order, as one after the other.
-  std::vector<Refined> first_rounds(basins.size());
-  parallelFor(basins.size(), jobs, [&](std::size_t i) {
-    const BalanceCost own = cost;
-    first_rounds[i] = refineOn(own, {basins[i].position, basins[i].valve, 0.0, {}, {}}, step + 1.0);
-  });
   Refined best{0.0, 0.0, std::numeric_limits<double>::infinity(), {}, {}};
-  for (const Refined& r : first_rounds) {
+  for (const Point& basin : basins) {
+    const Refined r = refine({basin.position, basin.valve, 0.0, {}, {}}, step + 1.0);
     if (r.cost < best.cost) best = r;
   }
-  for (int round = 0; round < 2; ++round) best = refineOn(cost, best, 1.0);
+  for (int round = 0; round < 2; ++round) best = refine(best, 1.0);
   double position = best.position, valve = best.valve;
   constexpr int kX = static_cast<int>(InputStream::kPosition), kV = static_cast<int>(InputStream::kValve);
   e.delays[kX] = position * dt;

@@ -40,9 +40,7 @@ struct TopicDelayEstimate {
 /// the capacitive columns removed (errors in variables), and the residual's RMS is the cost; the offsets are
 /// its minimum: a coarse map over both offsets on smoothed signals, its three best basins refined in whole,
 /// quarter samples and by a parabola, the lowest kept. Only windows where the model holds (pressure above
-/// min_pressure, valve not saturated) and the cushion moves or the pressure changes count. `jobs`: threads for
-/// the basins' first rounds (0: one per core); the result is the same for any.
-TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config,
-                                       int jobs = 1);
+/// min_pressure, valve not saturated) and the cushion moves or the pressure changes count.
+TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config);
 
 }  // namespace die_cushion_ident
