@@ -222,26 +222,17 @@ void OfflineAnalysis::analyzeValveSweep(OfflineResult* result, const std::functi
   r.valve = std::move(sweep);
 }
 
-OfflineResult OfflineAnalysis::identify(const std::function<void(const std::string&)>& progress) {
-  const auto tell = [&](const std::string& what) {
-    if (progress) progress(what);
-  };
-  endInput();
-  OfflineResult r;
-  r.topic_delays = config_.appliedTopicDelays();
-  r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
-  r.derived_velocity_samples = pipeline_.derivedVelocitySamples();
-  r.messages = messages_;
-  r.grid_samples = grid_.size();
-  for (int s = 0; s < kInputStreamCount; ++s)
-    r.health[s] = pipeline_.resampler().health(static_cast<InputStream>(s));
-  r.restarts = pipeline_.resampler().restarts();
-  r.estimates = std::move(estimates_);
-  const HydraulicModel model =
-      HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
-  r.effects = model.effectNames();
+namespace {
 
-  const auto& bounds = config_.resamplerConfig().plausible;
+// A part of the analysis that could not run: why, in words and with what to do; the result is partial.
+void cannotRun(OfflineResult& r, const std::string& why) {
+  r.warnings.push_back(why);
+  r.partial = true;
+}
+
+// Messages rejected as implausible or as stamped far off the other topics, per topic.
+void warnRejectedMessages(const IdentificationConfig& config, OfflineResult& r) {
+  const auto& bounds = config.resamplerConfig().plausible;
   for (int s = 0; s < kInputStreamCount; ++s) {
     const StreamHealth& h = r.health[s];
     const char* name = inputStreamName(static_cast<InputStream>(s));
@@ -262,112 +253,157 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
       r.warnings.push_back(text);
     }
   }
-  // Every reason a part of the analysis could not run, in words and with what to do.
-  const auto cannot = [&r](const std::string& why) {
-    r.warnings.push_back(why);
-    r.partial = true;
-  };
-  const bool valve_stream = r.health[2].accepted > 0;
-  r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0 && valve_stream;
+}
+
+// What the grid holds: samples with all three inputs, with a velocity, and the highest pressure.
+struct GridCoverage {
   std::uint64_t complete = 0, with_velocity = 0;
-  double highest = -std::numeric_limits<double>::infinity();  // pressure, for a hint about its unit
-  for (const GridSample& g : grid_) {
-    complete += g.complete ? 1 : 0;
-    with_velocity += g.complete && std::isfinite(g.v) ? 1 : 0;
-    if (std::isfinite(g.p)) highest = std::max(highest, static_cast<double>(g.p));
+  double highest = -std::numeric_limits<double>::infinity();  // [Pa], for a hint about its unit
+};
+
+GridCoverage coverageOf(const std::vector<GridSample>& grid) {
+  GridCoverage c;
+  for (const GridSample& g : grid) {
+    c.complete += g.complete ? 1 : 0;
+    c.with_velocity += g.complete && std::isfinite(g.v) ? 1 : 0;
+    if (std::isfinite(g.p)) c.highest = std::max(c.highest, static_cast<double>(g.p));
   }
+  return c;
+}
+
+// Whether the hydraulics can be identified at all: all three topics, overlapping in time.
+void decideHydraulics(const GridCoverage& coverage, OfflineResult& r) {
+  r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0 && r.health[2].accepted > 0;
   if (!r.hydraulics) {
-    cannot(std::string("the ") + (r.health[0].accepted == 0 ? "pressure" : r.health[1].accepted == 0 ? "position" : "valve") +
-           " topic gave no usable message: the hydraulics were not identified (check the topic names in the "
-           "config's topics: and the warnings above)");
-  } else if (complete == 0) {
-    cannot("pressure, position and valve never overlap in time (no sample has all three): the hydraulics "
-           "were not identified; check the stamps (topics stamped by different clocks far apart?)");
+    cannotRun(r, std::string("the ") +
+                     (r.health[0].accepted == 0 ? "pressure" : r.health[1].accepted == 0 ? "position" : "valve") +
+                     " topic gave no usable message: the hydraulics were not identified (check the topic names "
+                     "in the config's topics: and the warnings above)");
+  } else if (coverage.complete == 0) {
+    cannotRun(r, "pressure, position and valve never overlap in time (no sample has all three): the hydraulics "
+                 "were not identified; check the stamps (topics stamped by different clocks far apart?)");
     r.hydraulics = false;
   }
+}
+
+}  // namespace
+
+OfflineResult OfflineAnalysis::identify(const std::function<void(const std::string&)>& progress) {
+  const auto tell = [&](const std::string& what) {
+    if (progress) progress(what);
+  };
+  endInput();
+  OfflineResult r;
+  r.topic_delays = config_.appliedTopicDelays();
+  r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
+  r.derived_velocity_samples = pipeline_.derivedVelocitySamples();
+  r.messages = messages_;
+  r.grid_samples = grid_.size();
+  for (int s = 0; s < kInputStreamCount; ++s)
+    r.health[s] = pipeline_.resampler().health(static_cast<InputStream>(s));
+  r.restarts = pipeline_.resampler().restarts();
+  r.estimates = std::move(estimates_);
+  const HydraulicModel model =
+      HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
+  r.effects = model.effectNames();
+  warnRejectedMessages(config_, r);
+  const GridCoverage coverage = coverageOf(grid_);
+  decideHydraulics(coverage, r);
   analyzeValveSweep(&r, tell);
-  if (r.hydraulics) {
-    if (with_velocity == 0) {
-      cannot("no velocity: the position topic carries none and none could be derived from the positions; "
-             "the model comparison and the effect ranking could not run");
-    }
-    tell("segmenting the strokes");
-    r.strokes = segmentStrokes(grid_);
-    tell("fitting the model to the whole recording");
-    r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
-    if (r.model.updates == 0 && highest < config_.min_pressure) {
-      char text[320];
-      std::snprintf(text, sizeof(text),
-                    "the pressure never exceeds min_pressure (%.3g Pa; highest %.4g): no parameters identified. "
-                    "Is it recorded in bar or psi? FluidPressure.fluid_pressure is in Pa",
-                    config_.min_pressure, highest);
-      cannot(text);
-    } else if (r.model.updates == 0) {
-      cannot("the recording never excites the hydraulics (no press stroke with the pressure above "
-             "min_pressure): no parameters identified");
-    } else {
-      std::vector<std::string> uncertain;
-      for (const auto& problem : implausibleParameters(model, r.model, 3.0, &uncertain)) {
-        cannot("implausible estimate: " + problem +
-               "; the model does not describe this recording (wrong joint, units or topic, or a large "
-               "clock offset between the topics); the comparison below is not a valid model check");
-      }
-      for (const auto& doubt : uncertain) {
-        r.warnings.push_back(doubt + ", but within 3 standard deviations of it: the recording does not pin "
-                             "it down (more varied strokes would), or an effect the model lacks pulls it");
-      }
-      tell("fitting each group of cycles alone (does a parameter change over the recording?)");
-      const CycleGroupFits cycle_groups(grid_, r.strokes, config_, 10, jobs_);
-      for (const auto& spread : parametersThatVaryOverTheRecording(cycle_groups, r.model)) {
-        r.warnings.push_back(spread);
-      }
-      tell("looking for an effect that starts within the recording");
-      r.onset = findEffectOnset(grid_, r.strokes, config_, kVariationSignificance, jobs_);
-      if (r.onset) {
-        r.warnings.push_back(r.onset->explanation + ". The whole recording's fit averages over the change: " +
-                             "analyse the cycles from it on alone, or with " + r.onset->effect + " in the model");
-      }
-    }
-  }
+  if (r.hydraulics) fitTheWholeRecording(model, coverage.with_velocity > 0, coverage.highest, &r, tell);
   if (r.hydraulics && r.model.updates == 0) {
     // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
   } else if (r.hydraulics) {
-    const HydraulicEstimate equation_error = r.model;
-    // Refined by the free run's error where that brings it to the noise (refineByOutputError), unless the
-    // fit is implausible (then the model does not describe the recording, and fitting its free run would
-    // hide that).
-    if (!r.partial) {
-      tell("refining the parameters by the free run's error");
-      OutputErrorOptions refine;
-      refine.jobs = jobs_;
-      refine.pressure_noise = config_.grid_pressure_noise;
-      r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),
-                                           config_.min_pressure, refine);
-      if (r.output_error->improved) {
-        for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
-          r.model.parameters[i].value = r.output_error->theta(static_cast<Eigen::Index>(i));
-          // The larger of the two fits' own stds: the free run's sandwich sees only the residuals' scatter,
-          // not the bias the noisy inputs (position, spool) drive into it (on fast presses a third of the
-          // errors); the cycle jackknife and the method's part below add what both miss (doc/equations.md,
-          // "Uncertainty").
-          r.model.parameters[i].std = std::max(r.model.parameters[i].std, r.output_error->std(static_cast<Eigen::Index>(i)));
-        }
-      }
-    }
-    tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
-    HydraulicEstimate jackknife = equation_error;
-    const bool resampled = applyCycleJackknife(grid_, r.strokes, config_, &jackknife, 10, jobs_);
-    r.uncertainty = combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model);
-    const ParameterVector theta = r.model.values();
-    tell("running the model free against the measurement");
-    r.assessment = assessModel(grid_, r.strokes, model, theta, config_.min_pressure);
-    if (r.assessment.samples == 0) {
-      cannot("the identified model could not be run against the measurement (no sample with pressure, "
-             "position, velocity and spool all known above min_pressure): no simulation error");
-    }
+    refineAndCompare(model, &r, tell);
   }
   return r;
+}
+
+void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool velocity, double highest,
+                                           OfflineResult* result, const std::function<void(const std::string&)>& tell) {
+  OfflineResult& r = *result;
+  if (!velocity) {
+    cannotRun(r, "no velocity: the position topic carries none and none could be derived from the positions; "
+                 "the model comparison and the effect ranking could not run");
+  }
+  tell("segmenting the strokes");
+  r.strokes = segmentStrokes(grid_);
+  tell("fitting the model to the whole recording");
+  r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
+  if (r.model.updates == 0 && highest < config_.min_pressure) {
+    char text[320];
+    std::snprintf(text, sizeof(text),
+                  "the pressure never exceeds min_pressure (%.3g Pa; highest %.4g): no parameters identified. "
+                  "Is it recorded in bar or psi? FluidPressure.fluid_pressure is in Pa",
+                  config_.min_pressure, highest);
+    cannotRun(r, text);
+    return;
+  }
+  if (r.model.updates == 0) {
+    cannotRun(r, "the recording never excites the hydraulics (no press stroke with the pressure above "
+                 "min_pressure): no parameters identified");
+    return;
+  }
+  std::vector<std::string> uncertain;
+  for (const auto& problem : implausibleParameters(model, r.model, 3.0, &uncertain)) {
+    cannotRun(r, "implausible estimate: " + problem +
+                     "; the model does not describe this recording (wrong joint, units or topic, or a large "
+                     "clock offset between the topics); the comparison below is not a valid model check");
+  }
+  for (const auto& doubt : uncertain) {
+    r.warnings.push_back(doubt + ", but within 3 standard deviations of it: the recording does not pin "
+                         "it down (more varied strokes would), or an effect the model lacks pulls it");
+  }
+  tell("fitting each group of cycles alone (does a parameter change over the recording?)");
+  const CycleGroupFits cycle_groups(grid_, r.strokes, config_, 10, jobs_);
+  for (const auto& spread : parametersThatVaryOverTheRecording(cycle_groups, r.model)) {
+    r.warnings.push_back(spread);
+  }
+  tell("looking for an effect that starts within the recording");
+  r.onset = findEffectOnset(grid_, r.strokes, config_, kVariationSignificance, jobs_);
+  if (r.onset) {
+    r.warnings.push_back(r.onset->explanation + ". The whole recording's fit averages over the change: " +
+                         "analyse the cycles from it on alone, or with " + r.onset->effect + " in the model");
+  }
+}
+
+void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResult* result,
+                                       const std::function<void(const std::string&)>& tell) {
+  OfflineResult& r = *result;
+  const HydraulicEstimate equation_error = r.model;
+  // Refined by the free run's error where that brings it to the noise (refineByOutputError), unless the
+  // fit is implausible (then the model does not describe the recording, and fitting its free run would
+  // hide that).
+  if (!r.partial) {
+    tell("refining the parameters by the free run's error");
+    OutputErrorOptions refine;
+    refine.jobs = jobs_;
+    refine.pressure_noise = config_.grid_pressure_noise;
+    r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),
+                                         config_.min_pressure, refine);
+    if (r.output_error->improved) {
+      for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
+        r.model.parameters[i].value = r.output_error->theta(static_cast<Eigen::Index>(i));
+        // The larger of the two fits' own stds: the free run's sandwich sees only the residuals' scatter,
+        // not the bias the noisy inputs (position, spool) drive into it (on fast presses a third of the
+        // errors); the cycle jackknife and the method's part below add what both miss (doc/equations.md,
+        // "Uncertainty").
+        r.model.parameters[i].std =
+            std::max(r.model.parameters[i].std, r.output_error->std(static_cast<Eigen::Index>(i)));
+      }
+    }
+  }
+  tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
+  HydraulicEstimate jackknife = equation_error;
+  const bool resampled = applyCycleJackknife(grid_, r.strokes, config_, &jackknife, 10, jobs_);
+  r.uncertainty = combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model);
+  tell("running the model free against the measurement");
+  r.assessment = assessModel(grid_, r.strokes, model, r.model.values(), config_.min_pressure);
+  if (r.assessment.samples == 0) {
+    cannotRun(r, "the identified model could not be run against the measurement (no sample with pressure, "
+                 "position, velocity and spool all known above min_pressure): no simulation error");
+  }
 }
 
 void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(const std::string&)>& progress) {

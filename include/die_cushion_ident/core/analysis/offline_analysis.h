@@ -160,6 +160,12 @@ class OfflineAnalysis {
   SweepCandidateFilter valve_filter_;
   MessageNoise pressure_noise_;  // the sensor's, for grids finer than its messages
   void endInput();  // flushes the pipeline once
+  // identify()'s steps: the strokes, the fit to the whole recording, whether it is plausible and whether a
+  // parameter changes within it; then the free run's refinement, the stds and the model comparison.
+  void fitTheWholeRecording(const HydraulicModel& model, bool velocity, double highest, OfflineResult* result,
+                            const std::function<void(const std::string&)>& tell);
+  void refineAndCompare(const HydraulicModel& model, OfflineResult* result,
+                        const std::function<void(const std::string&)>& tell);
   // Finds and fits a recorded valve sweep; its model becomes the one the fits judge the port side with.
   void analyzeValveSweep(OfflineResult* result, const std::function<void(const std::string&)>& tell);
   // Warns (and says so) where the valve messages are too slow for the recording to tell the amplifier's
