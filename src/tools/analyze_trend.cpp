@@ -257,21 +257,10 @@ void writeCsv(const std::string& path, const std::vector<Recording>& rows, const
   if (!csv) fail(4, "cannot write " + path + "\n");
 }
 
-int run(int argc, char** argv) {
-  const Options o = parseArguments(argc, argv);
-  const auto log = [&](const std::string& text) {
-    if (!o.quiet) std::cerr << "analyze_trend: " << text << "\n";
-  };
-  if (!makeDirectory(o.out + "/bags")) fail(4, "cannot create " + o.out + "/bags\n");
-  const std::vector<std::string> bags = collectBags(o);
-  if (bags.empty()) fail(2, "no *.bag found in the given paths\n");
-  const std::string config_text = o.config.empty() ? "" : readFile(o.config);
-  if (!o.config.empty() && config_text.empty()) fail(2, "cannot read the config " + o.config + "\n");
-  const std::string config_name = o.config.empty() ? "default" : fs::path(o.config).stem().string();
-
-  // Which bags need analysing: a result is reused while its fingerprint (bag size and time, settings) holds.
+// Which bags need analysing: a result is reused while its fingerprint (bag size and time, settings) holds.
+std::vector<BagJob> planJobs(const std::vector<std::string>& bags, const Options& o, const std::string& config_text,
+                             std::vector<std::size_t>* pending) {
   std::vector<BagJob> jobs;
-  std::vector<std::size_t> pending;
   for (const auto& bag : bags) {
     BagJob job;
     job.bag = bag;
@@ -287,16 +276,18 @@ int run(int argc, char** argv) {
         job.reused = false;
       }
     }
-    if (!job.reused) pending.push_back(jobs.size());
+    if (!job.reused) pending->push_back(jobs.size());
     jobs.push_back(std::move(job));
   }
-  log(std::to_string(bags.size()) + " recordings: " + std::to_string(pending.size()) + " to analyse, " +
-      std::to_string(bags.size() - pending.size()) + " unchanged since the last run; " + std::to_string(o.jobs) +
-      " side by side");
+  return jobs;
+}
 
+// The pending bags analysed side by side, one thread each; a lone remaining bag gets the cores for its
+// ranking. Returns the seconds it took.
+double analysePending(std::vector<BagJob>& jobs, const std::vector<std::size_t>& pending, const Options& o,
+                      const std::function<void(const std::string&)>& log) {
   const auto started = std::chrono::steady_clock::now();
   const std::string analyze_bag = analyzeBagPath();
-  // Side by side, one thread each; a lone remaining bag gets the cores for its ranking.
   const int threads_each = std::max(1, o.jobs / std::max<int>(1, static_cast<int>(pending.size())));
   std::atomic<int> done{0};
   std::mutex log_mutex;
@@ -307,11 +298,12 @@ int run(int argc, char** argv) {
     log(std::to_string(++done) + " of " + std::to_string(pending.size()) + ": " +
         fs::path(job.bag).filename().string() + (job.failed ? " skipped: " + job.reason : formatted(" (%.1f s)", job.seconds)));
   });
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+}
 
+// The recordings whose summaries could be read, in time order; the others listed as skipped with why.
+std::vector<Recording> readRecordings(std::vector<BagJob>& jobs, YAML::Emitter& yaml) {
   std::vector<Recording> rows;
-  YAML::Emitter yaml;
-  yaml << YAML::BeginMap;
   yaml << YAML::Key << "skipped" << YAML::Value << YAML::BeginSeq;
   for (auto& job : jobs) {
     if (!job.failed) {
@@ -328,33 +320,15 @@ int run(int argc, char** argv) {
   }
   yaml << YAML::EndSeq;
   std::stable_sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.start < b.start; });
+  return rows;
+}
 
-  std::vector<std::string> names, effects;
-  std::map<std::string, std::string> units;
-  for (const auto& r : rows) {
-    for (const auto& p : r.parameters) {
-      if (!units.count(p.name)) names.push_back(p.name);
-      units[p.name] = p.unit;
-    }
-    for (const auto& [effect, verdict] : r.verdicts) {
-      if (std::find(effects.begin(), effects.end(), effect) == effects.end()) effects.push_back(effect);
-    }
-  }
-  writeCsv(o.out + "/trend.csv", rows, names, effects, config_name);
-
-  // Changes: a sequential test per parameter (each recording tested once, when it arrives), designed for
-  // the false alarms per press-year allowed, shared by every parameter tested.
-  SequentialDetectionOptions detection;
-  detection.recordings_between_false_alarms =
-      o.recordings_per_year * static_cast<double>(std::max<std::size_t>(1, names.size())) / o.false_alarms_per_year;
-  yaml << YAML::Key << "recordings" << YAML::Value << rows.size();
-  yaml << YAML::Key << "analysed_now" << YAML::Value << pending.size();
-  yaml << YAML::Key << "false_alarms_per_year" << YAML::Value << o.false_alarms_per_year;
-  yaml << YAML::Key << "recordings_per_year" << YAML::Value << o.recordings_per_year;
-  yaml << YAML::Key << "recordings_between_false_alarms" << YAML::Value << detection.recordings_between_false_alarms;
-  yaml << YAML::Key << "cusum_threshold" << YAML::Value << cusumThreshold(detection);
-  yaml << YAML::Key << "changes" << YAML::Value << YAML::BeginSeq;
+// Changes: a sequential test per parameter (each recording tested once, when it arrives). Returns how many.
+int emitParameterChanges(const std::vector<Recording>& rows, const std::vector<std::string>& names,
+                         std::map<std::string, std::string>& units, const SequentialDetectionOptions& detection,
+                         YAML::Emitter& yaml, const std::function<void(const std::string&)>& log) {
   int changes = 0;
+  yaml << YAML::Key << "changes" << YAML::Value << YAML::BeginSeq;
   for (const auto& name : names) {
     std::vector<TrendPoint> series;
     for (const auto& r : rows) {
@@ -377,10 +351,16 @@ int run(int argc, char** argv) {
       ++changes;
     }
   }
-  // A verdict change: an effect `missing` in the last recordings (at least 2 in a row) after at least 3
-  // recordings where it was not. In a list of its own: `changes` keeps the contract's entry shape
-  // (parameter, start, start_stamp, before, after, unit, explanation) for whoever reads it.
   yaml << YAML::EndSeq;
+  return changes;
+}
+
+// A verdict change: an effect `missing` in the last recordings (at least 2 in a row) after at least 3
+// recordings where it was not. In a list of its own: `changes` keeps the contract's entry shape
+// (parameter, start, start_stamp, before, after, unit, explanation) for whoever reads it. Returns how many.
+int emitVerdictChanges(const std::vector<Recording>& rows, const std::vector<std::string>& effects,
+                       YAML::Emitter& yaml, const std::function<void(const std::string&)>& log) {
+  int changes = 0;
   yaml << YAML::Key << "verdict_changes" << YAML::Value << YAML::BeginSeq;
   for (const auto& effect : effects) {
     std::vector<std::pair<double, bool>> missing;
@@ -405,7 +385,59 @@ int run(int argc, char** argv) {
     log("change: " + words);
     ++changes;
   }
-  yaml << YAML::EndSeq << YAML::EndMap;
+  yaml << YAML::EndSeq;
+  return changes;
+}
+
+int run(int argc, char** argv) {
+  const Options o = parseArguments(argc, argv);
+  const std::function<void(const std::string&)> log = [&](const std::string& text) {
+    if (!o.quiet) std::cerr << "analyze_trend: " << text << "\n";
+  };
+  if (!makeDirectory(o.out + "/bags")) fail(4, "cannot create " + o.out + "/bags\n");
+  const std::vector<std::string> bags = collectBags(o);
+  if (bags.empty()) fail(2, "no *.bag found in the given paths\n");
+  const std::string config_text = o.config.empty() ? "" : readFile(o.config);
+  if (!o.config.empty() && config_text.empty()) fail(2, "cannot read the config " + o.config + "\n");
+  const std::string config_name = o.config.empty() ? "default" : fs::path(o.config).stem().string();
+
+  std::vector<std::size_t> pending;
+  std::vector<BagJob> jobs = planJobs(bags, o, config_text, &pending);
+  log(std::to_string(bags.size()) + " recordings: " + std::to_string(pending.size()) + " to analyse, " +
+      std::to_string(bags.size() - pending.size()) + " unchanged since the last run; " + std::to_string(o.jobs) +
+      " side by side");
+  const double seconds = analysePending(jobs, pending, o, log);
+
+  YAML::Emitter yaml;
+  yaml << YAML::BeginMap;
+  const std::vector<Recording> rows = readRecordings(jobs, yaml);
+  std::vector<std::string> names, effects;
+  std::map<std::string, std::string> units;
+  for (const auto& r : rows) {
+    for (const auto& p : r.parameters) {
+      if (!units.count(p.name)) names.push_back(p.name);
+      units[p.name] = p.unit;
+    }
+    for (const auto& [effect, verdict] : r.verdicts) {
+      if (std::find(effects.begin(), effects.end(), effect) == effects.end()) effects.push_back(effect);
+    }
+  }
+  writeCsv(o.out + "/trend.csv", rows, names, effects, config_name);
+
+  // The sequential tests are designed for the false alarms per press-year allowed, shared by every
+  // parameter tested.
+  SequentialDetectionOptions detection;
+  detection.recordings_between_false_alarms =
+      o.recordings_per_year * static_cast<double>(std::max<std::size_t>(1, names.size())) / o.false_alarms_per_year;
+  yaml << YAML::Key << "recordings" << YAML::Value << rows.size();
+  yaml << YAML::Key << "analysed_now" << YAML::Value << pending.size();
+  yaml << YAML::Key << "false_alarms_per_year" << YAML::Value << o.false_alarms_per_year;
+  yaml << YAML::Key << "recordings_per_year" << YAML::Value << o.recordings_per_year;
+  yaml << YAML::Key << "recordings_between_false_alarms" << YAML::Value << detection.recordings_between_false_alarms;
+  yaml << YAML::Key << "cusum_threshold" << YAML::Value << cusumThreshold(detection);
+  int changes = emitParameterChanges(rows, names, units, detection, yaml, log);
+  changes += emitVerdictChanges(rows, effects, yaml, log);
+  yaml << YAML::EndMap;
   std::ofstream(o.out + "/trend.yaml") << "# die_cushion_ident analyze_trend (doc/condition_monitoring.md)\n"
                                        << yaml.c_str() << "\n";
   const std::size_t skipped = jobs.size() - rows.size();
