@@ -341,6 +341,18 @@ std::string uniqueName(const std::string& wanted, const IdentificationConfig& mo
   return name;
 }
 
+// The screen over cycles [first, last] (all: INT_MIN, INT_MAX), the model's own columns at its fit to them
+// (its nominal values where that fails); none where too few windows hold all inputs.
+std::optional<BalanceScreen> screenOnCycles(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                            const IdentificationConfig& model, const HydraulicModel& hydraulic,
+                                            const FormulaSearchOptions& options, int first, int last) {
+  ParameterVector theta = fitOnCycles(grid, strokes, model, first, last).values();
+  if (!theta.allFinite()) theta = hydraulic.nominalParameters();
+  std::optional<BalanceScreen> screen(std::in_place, grid, strokes, model, hydraulic, theta, options, first, last);
+  if (screen->windows() < 10 * hydraulic.parameterCount()) return std::nullopt;
+  return screen;
+}
+
 // The held-out errors of a term whose breakpoint each fold chooses on its own training cycles (the screen
 // and the free-run refinement, as on all cycles): the cycles a fold is tested on never took part in
 // choosing what is tested on them. Empty where a fold's screen finds no physical breakpoint for the shape.
@@ -356,11 +368,9 @@ std::optional<HeldOutErrors> heldOutErrorsNested(const std::vector<GridSample>& 
     FormulaTerm chosen = term;
     if (term.hasBreakpoint()) {
       const int first = which == 0 ? 0 : split, last = which == 0 ? split - 1 : strokes.cycles - 1;
-      ParameterVector theta = fitOnCycles(grid, strokes, model, first, last).values();
-      if (!theta.allFinite()) theta = hydraulic.nominalParameters();
-      const BalanceScreen screen(grid, strokes, model, hydraulic, theta, options, first, last);
-      if (screen.windows() < 10 * hydraulic.parameterCount()) return std::nullopt;
-      const Screened screened = bestOfShape(screen, term, options);
+      const std::optional<BalanceScreen> screen = screenOnCycles(grid, strokes, model, hydraulic, options, first, last);
+      if (!screen) return std::nullopt;
+      const Screened screened = bestOfShape(*screen, term, options);
       if (!(screened.reduction > 0.0)) return std::nullopt;
       try {
         chosen = refineBreakpoint(grid, strokes, model, screened, options, first, last);
@@ -440,12 +450,10 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
                                            const IdentificationConfig& model, const HeldOutErrors& base,
                                            const EffectRankingOptions& ranking, const FormulaSearchOptions& options) {
   const HydraulicModel hydraulic = HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects);
-  const HydraulicEstimate fitted = fitOnCycles(grid, strokes, model, INT_MIN, INT_MAX);
-  ParameterVector theta = fitted.values();
-  if (!theta.allFinite()) theta = hydraulic.nominalParameters();
-  const BalanceScreen screen(grid, strokes, model, hydraulic, theta, options);
-  if (screen.windows() < 10 * hydraulic.parameterCount()) return {};
-  const std::vector<Screened> screened = screenAll(screen, model.geometry.supply_pressure, options);
+  const std::optional<BalanceScreen> screen =
+      screenOnCycles(grid, strokes, model, hydraulic, options, INT_MIN, INT_MAX);
+  if (!screen) return {};
+  const std::vector<Screened> screened = screenAll(*screen, model.geometry.supply_pressure, options);
 
   std::vector<std::pair<FormulaProposal, int>> proven;
   for (const auto& candidate : screened) {
@@ -455,7 +463,7 @@ std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, 
     if (candidate.reduction < options.prove_fraction * screened.front().reduction) break;
     try {
       const FormulaTerm term = refineBreakpoint(grid, strokes, model, candidate, options);
-      proven.emplace_back(prove(grid, strokes, model, base, term, screen, ranking, options), term.complexity());
+      proven.emplace_back(prove(grid, strokes, model, base, term, *screen, ranking, options), term.complexity());
     } catch (const std::invalid_argument&) {
       // A breakpoint at the edge of the data can leave a term that is zero over the operating range the
       // custom effect is probed on: not a formula a user could add; the next shape is tried instead.

@@ -14,6 +14,7 @@
 #include "die_cushion_ident/core/analysis/output_error_refinement.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/signal/message_noise.h"
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/util/formatted.h"
 
@@ -282,7 +283,7 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   options.jobs = jobs;
   // At a period between the pressure's messages the grid's own second differences see interpolations.
   const double pressure_interval = choice.survey.message_interval[static_cast<int>(InputStream::kPressure)];
-  if (period < 0.9 * pressure_interval) options.pressure_noise = choice.survey.pressure_noise;
+  if (gridBetweenMessages(period, pressure_interval)) options.pressure_noise = choice.survey.pressure_noise;
   const OutputErrorFit refined =
       refineByOutputError(grid, model, fit.values(), fit.standardDeviations(), choice.config.min_pressure, options);
   if (!refined.improved) return std::nullopt;

@@ -6,6 +6,12 @@
 
 namespace die_cushion_ident {
 
+/// Whether a grid of `sample_period` lies between messages that come every `message_interval` (its samples
+/// then interpolate them): a period below 0.9 of the interval.
+inline bool gridBetweenMessages(double sample_period, double message_interval) {
+  return sample_period < 0.9 * message_interval;
+}
+
 /// A sensor's white noise read from its own messages, before any resampling, and how often they come.
 /// A grid finer than the messages holds interpolations between them, whose second differences are far
 /// smaller than the sensor's (0.5 ms from 1 kHz pressure: the grid's estimate was 7 times too small, and a
