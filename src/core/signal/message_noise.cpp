@@ -35,7 +35,8 @@ double MessageNoise::meanInterval() const {
 double MessageNoise::forGrid(double sample_period) const {
   const double interval = meanInterval();
   const double sigma = noise_.sigma();
-  if (!std::isfinite(interval) || !std::isfinite(sigma) || !gridBetweenMessages(sample_period, interval)) return 0.0;
+  if (!std::isfinite(interval) || !std::isfinite(sigma) || !gridBetweenMessages(sample_period, interval))
+    return 0.0;
   return sigma;
 }
 
