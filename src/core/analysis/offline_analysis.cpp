@@ -83,6 +83,7 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits
 
 OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
   config_.refine_held_out_fits = true;
+  pressure_noise_.followGrid(config_.resampler.sample_period);
   pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) { grid_.push_back(g); });
   pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
 }
@@ -143,7 +144,10 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
 void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
   ++messages_;
   pipeline_.push(stream, sample);
-  if (stream == InputStream::kPressure) pressure_noise_.add(sample.stamp, sample.first);
+  // On the grid's time base (the pipeline moves each topic's stamps by its delay), for the grid's share.
+  if (stream == InputStream::kPressure) {
+    pressure_noise_.add(sample.stamp - config_.appliedTopicDelays()[0], sample.first);
+  }
   // The sweep analysis wants the raw valve signal, not the 2 ms grid (sweeps reach 160 Hz), but only where
   // the command can be a sweep: hours of press strokes are not kept.
   if (stream == InputStream::kValve && std::isfinite(sample.stamp) && std::isfinite(sample.first)) {

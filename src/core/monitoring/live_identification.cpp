@@ -80,6 +80,7 @@ void LiveIdentification::setCallbacks(GridCallback on_grid, StepCallback on_step
 
 void LiveIdentification::rebuild() {
   pipeline_ = std::make_unique<IdentificationPipeline>(config_);
+  pressure_noise_.followGrid(config_.resampler.sample_period);
   pipeline_->setGridCallback(
       [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });
   pipeline_->setStepCallback([this](const HydraulicIdentifier& identifier) {
@@ -117,7 +118,7 @@ PushResult LiveIdentification::push(InputStream stream, const StreamSample& samp
   }
   if (survey_) surveyMessage(stream, sample);
   if (stream == InputStream::kPressure) {
-    pressure_noise_.add(sample.stamp, sample.first);
+    pressure_noise_.add(sample.stamp - config_.appliedTopicDelays()[0], sample.first);
     monitor_->setGridPressureNoise(pressure_noise_.forGrid(config_.resampler.sample_period));
   }
   // Changes that rebuild the pipeline, after the message (never from inside its callbacks).

@@ -7,6 +7,11 @@ namespace die_cushion_ident {
 namespace {
 // A gap longer than this is a pause (or a loop), not the topic's rate.
 constexpr double kLongestInterval = 1.0;  // [s]
+// Grid samples closer than this many message intervals are often interpolated from a common message (up to
+// 2 with the stamps' jitter; at 2 they share one only where a stamp jitters across a grid point).
+constexpr double kSharedBelow = 1.8;
+// More grid points between two messages than this are a grid far finer than any sensor: not followed.
+constexpr double kMostGridPoints = 1e5;
 }  // namespace
 
 void MessageNoise::add(double stamp, double value) {
@@ -16,6 +21,7 @@ void MessageNoise::add(double stamp, double value) {
   } else if (stamp - last_stamp_ <= kLongestInterval) {
     interval_sum_ += stamp - last_stamp_;
     ++intervals_;
+    addGridShares(last_stamp_, stamp);
   } else {
     run_ = 0;
   }
@@ -32,12 +38,43 @@ double MessageNoise::meanInterval() const {
                         : std::numeric_limits<double>::quiet_NaN();
 }
 
+void MessageNoise::followGrid(double period) {
+  grid_period_ = period > 0.0 ? period : 0.0;
+  share_sum_ = 0.0;
+  shares_ = 0;
+}
+
+void MessageNoise::addGridShares(double from, double to) {
+  if (!(grid_period_ > 0.0)) return;
+  // The grid points t_k = k * period (as UniformResampler computes them) in (from, to], each counted once:
+  // the simulator's stamps lie on grid points often, and a quotient that rounds across an integer counted
+  // such a point twice or not at all. A point on a message's stamp holds that message alone (w = 1).
+  // Counted with an integer: stamps far from 0 (a fuzzed 1e20 s) leave k * period unable to step.
+  double first = std::floor(from / grid_period_) + 1.0, last = std::floor(to / grid_period_);
+  if (!(last - first <= kMostGridPoints && first - last <= 2.0)) return;
+  if (first * grid_period_ <= from) first += 1.0;
+  if ((first - 1.0) * grid_period_ > from) first -= 1.0;
+  if (last * grid_period_ > to) last -= 1.0;
+  if ((last + 1.0) * grid_period_ <= to) last += 1.0;
+  if (!(last >= first)) return;
+  const long points = static_cast<long>(last - first) + 1;
+  for (long i = 0; i < points; ++i) {
+    const double w = ((first + static_cast<double>(i)) * grid_period_ - from) / (to - from);
+    share_sum_ += w * w + (1.0 - w) * (1.0 - w);
+    ++shares_;
+  }
+}
+
+double MessageNoise::gridShare() const {
+  return shares_ > 0 ? std::sqrt(share_sum_ / static_cast<double>(shares_)) : 1.0;
+}
+
 double MessageNoise::forGrid(double sample_period) const {
   const double interval = meanInterval();
   const double sigma = noise_.sigma();
-  if (!std::isfinite(interval) || !std::isfinite(sigma) || !gridBetweenMessages(sample_period, interval))
+  if (!std::isfinite(interval) || !std::isfinite(sigma) || !(sample_period < kSharedBelow * interval))
     return 0.0;
-  return sigma;
+  return sample_period == grid_period_ ? sigma * gridShare() : sigma;
 }
 
 }  // namespace die_cushion_ident

@@ -25,17 +25,31 @@ class MessageNoise {
   double sigma() const { return noise_.sigma(); }
   /// The mean interval between consecutive messages [s]; NaN until two.
   double meanInterval() const;
-  /// The noise a grid of this period is to be compared with: the messages' where the grid lies between
-  /// them (period below 0.9 of their interval), else 0 (the grid's own estimate is then the sensor's).
+  /// Follows the grid t_k = k * period from the next message on: how far each grid point lies between the
+  /// two messages it is interpolated from (forGrid). A new period starts the count over.
+  void followGrid(double period);
+  /// The noise a grid of this period is to be compared with, where neighbouring grid samples share messages
+  /// (a period below 1.8 message intervals): their second differences then read the noise low (7 times at
+  /// 0.5 ms from 1 kHz, 10 % at 1 ms from 1 kHz with 50 us of jitter). It is the noise each grid sample
+  /// holds: a sample a fraction w of the way from one message to the next holds sigma^2 (w^2 + (1 - w)^2), so
+  /// the sensor's sigma times the root mean of that over the followed grid (the sensor's sigma where the grid
+  /// is not followed). 0 where the samples do not share messages: the grid's own estimate is then unbiased.
   double forGrid(double sample_period) const;
+  /// The root mean of w^2 + (1 - w)^2 over the followed grid's points so far (1 before any).
+  double gridShare() const;
 
  private:
+  void addGridShares(double from, double to);
+
   WhiteNoiseEstimator noise_{4};
   double values_[3] = {0.0, 0.0, 0.0};
   int run_ = 0;  // consecutive messages in values_ (up to 3)
   double last_stamp_ = std::numeric_limits<double>::quiet_NaN();
   double interval_sum_ = 0.0;
   long intervals_ = 0;
+  double grid_period_ = 0.0;  // 0: no grid followed
+  double share_sum_ = 0.0;
+  long shares_ = 0;
 };
 
 }  // namespace die_cushion_ident
