@@ -51,6 +51,47 @@ void FeedForwardPublisher::publish(double stamp, double voltage) {
   ++published_;
 }
 
+std::string FeedForwardPublisher::waitingFor(bool model_ready, const ServoValveParameters* valve,
+                                             const std::string& experiment) const {
+  if (!reference_.received()) return "no pressure_setpoint received yet";
+  if (!experiment.empty()) return experiment + " owns the valve: the feed-forward waits until it ends";
+  if (!model_ready) return "the estimator has not identified the model yet (the press must stroke)";
+  if (!valve && !std::isfinite(configured_gain_)) {
+    return "the valve gain is unknown: run a sweep (~start_sweep) or set ~valve_gain";
+  }
+  return "";
+}
+
+ServoValveParameters FeedForwardPublisher::wantedValve(const ServoValveParameters* valve) const {
+  if (valve) return *valve;
+  ServoValveParameters wanted;
+  wanted.gain = configured_gain_;
+  wanted.dead_time = 0.0;  // no lag known: no lead
+  wanted.natural_frequency = std::numeric_limits<double>::infinity();
+  return wanted;
+}
+
+std::string FeedForwardPublisher::followParameters(const HydraulicModel& model, const ParameterVector& used,
+                                                   const ServoValveParameters& wanted,
+                                                   bool valve_identified) {
+  try {
+    if (!feed_forward_ || model_ != &model || valve_identified_ != valve_identified ||
+        wanted.gain != valve_used_.gain || wanted.dead_time != valve_used_.dead_time ||
+        wanted.natural_frequency != valve_used_.natural_frequency || wanted.damping != valve_used_.damping) {
+      feed_forward_ = std::make_unique<PressureFeedForward>(model, used, wanted, limit_);
+      model_ = &model;
+      valve_used_ = wanted;
+      valve_identified_ = valve_identified;
+    } else {
+      feed_forward_->setParameters(used);
+    }
+  } catch (const std::invalid_argument& e) {
+    feed_forward_.reset();
+    return std::string("the identified parameters cannot be used: ") + e.what();
+  }
+  return "";
+}
+
 void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& model, const ParameterVector& physical,
                                   bool model_ready, const ServoValveParameters* valve, const std::string& experiment) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -67,20 +108,9 @@ void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& mod
     if (!withdrawn_) publish(g.t, interlock_.output(NAN, dt));
     withdrawn_ = interlock_.lastOutput() == 0.0;
   };
-  if (!reference_.received()) return stop("no pressure_setpoint received yet");
-  if (!experiment.empty()) return stop(experiment + " owns the valve: the feed-forward waits until it ends");
-  if (!model_ready) return stop("the estimator has not identified the model yet (the press must stroke)");
-  if (!valve && !std::isfinite(configured_gain_)) {
-    return stop("the valve gain is unknown: run a sweep (~start_sweep) or set ~valve_gain");
-  }
-  ServoValveParameters wanted;
-  if (valve) {
-    wanted = *valve;
-  } else {
-    wanted.gain = configured_gain_;
-    wanted.dead_time = 0.0;  // no lag known: no lead
-    wanted.natural_frequency = std::numeric_limits<double>::infinity();
-  }
+  if (const std::string waiting = waitingFor(model_ready, valve, experiment); !waiting.empty())
+    return stop(waiting);
+  const ServoValveParameters wanted = wantedValve(valve);
   const std::string refusal = interlock_.check(physical, wanted.gain);
   if (!refusal.empty()) {
     ++refused_parameters_;
@@ -88,20 +118,9 @@ void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& mod
   }
   interlock_.acceptValveGain(wanted.gain);
   const ParameterVector& used = interlock_.follow(physical, dt);
-  try {
-    if (!feed_forward_ || model_ != &model || valve_identified_ != (valve != nullptr) ||
-        wanted.gain != valve_used_.gain || wanted.dead_time != valve_used_.dead_time ||
-        wanted.natural_frequency != valve_used_.natural_frequency || wanted.damping != valve_used_.damping) {
-      feed_forward_ = std::make_unique<PressureFeedForward>(model, used, wanted, limit_);
-      model_ = &model;
-      valve_used_ = wanted;
-      valve_identified_ = valve != nullptr;
-    } else {
-      feed_forward_->setParameters(used);
-    }
-  } catch (const std::invalid_argument& e) {
-    feed_forward_.reset();
-    return stop(std::string("the identified parameters cannot be used: ") + e.what());
+  if (const std::string unusable = followParameters(model, used, wanted, valve != nullptr);
+      !unusable.empty()) {
+    return stop(unusable);
   }
   const auto reference = reference_.at(g.t, feed_forward_->leadTime(), max_age_);
   if (!reference) {
@@ -113,8 +132,9 @@ void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& mod
   bool valid = false;
   const double lead = feed_forward_->leadTime();
   const double v_ahead = g.v + lead * acceleration;
-  const double u = feed_forward_->command(reference->first, reference->second, g.x + lead * g.v + 0.5 * lead * lead * acceleration,
-                                          v_ahead, &valid);
+  const double u =
+      feed_forward_->command(reference->first, reference->second,
+                             g.x + lead * g.v + 0.5 * lead * lead * acceleration, v_ahead, &valid);
   if (!valid) return stop("the cushion's position or velocity is not known");
   blocker_.clear();
   withdrawn_ = false;

@@ -46,6 +46,14 @@ class FeedForwardPublisher {
  private:
   void onSetpoint(const sensor_msgs::FluidPressure::ConstPtr& msg);
   void publish(double stamp, double voltage);
+  /// Why the feed-forward must not drive the valve before the parameters are looked at; "" where it may.
+  std::string waitingFor(bool model_ready, const ServoValveParameters* valve,
+                         const std::string& experiment) const;
+  /// The valve model the feed-forward inverts: the identified one, or the configured gain without lag.
+  ServoValveParameters wantedValve(const ServoValveParameters* valve) const;
+  /// The feed-forward built for (or moved to) the parameters; why it cannot be, "" where it is.
+  std::string followParameters(const HydraulicModel& model, const ParameterVector& used,
+                               const ServoValveParameters& wanted, bool valve_identified);
 
   ros::Subscriber sub_;
   ros::Publisher pub_;

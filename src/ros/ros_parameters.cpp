@@ -72,78 +72,99 @@ std::set<std::string> configuredKeys(const ros::NodeHandle& pnh) {
   return keys;
 }
 
-std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
-                                        SweepLimits* limits, NodeSettings* settings) {
-  std::vector<std::string> problems;
+namespace {
+
+void readConfigAndLimits(const ros::NodeHandle& pnh, IdentificationConfig* config, SweepLimits* limits,
+                         std::vector<std::string>* problems) {
   for (const auto& key : numericConfigKeys()) {
-    readNumber(pnh, key, &problems, [&](double v) {
+    readNumber(pnh, key, problems, [&](double v) {
       const std::string problem = numericConfigProblem(key, v);
       if (problem.empty()) {
         setNumericConfigValue(*config, key, v);
       } else {
-        problems.push_back("~" + problem);
+        problems->push_back("~" + problem);
       }
     });
   }
   for (const auto& key : sweepLimitKeys()) {
-    readNumber(pnh, key, &problems, [&](double v) { setSweepLimit(*limits, key, v); });
+    readNumber(pnh, key, problems, [&](double v) { setSweepLimit(*limits, key, v); });
   }
-  readNumber(pnh, "adequacy_warn_error", &problems, [&](double v) { settings->adequacy_warn_error = v; });
-  readNumber(pnh, "adequacy_error_error", &problems, [&](double v) { settings->adequacy_error_error = v; });
-  readNumber(pnh, "effect_ranking_window", &problems, [&](double v) { settings->effect_ranking_window = v; });
-  readNumber(pnh, "effect_ranking_period", &problems, [&](double v) { settings->effect_ranking_period = v; });
-  readNumber(pnh, "valve_gain", &problems, [&](double v) { settings->valve_gain = v; });
-  readNumber(pnh, "feed_forward_max_age", &problems, [&](double v) { settings->feed_forward_max_age = v; });
-  readNumber(pnh, "feed_forward_slew_rate", &problems, [&](double v) { settings->feed_forward_slew_rate = v; });
-  readNumber(pnh, "feed_forward_parameter_rate", &problems,
+}
+
+void readNodeSettings(const ros::NodeHandle& pnh, NodeSettings* settings,
+                      std::vector<std::string>* problems) {
+  readNumber(pnh, "adequacy_warn_error", problems, [&](double v) { settings->adequacy_warn_error = v; });
+  readNumber(pnh, "adequacy_error_error", problems, [&](double v) { settings->adequacy_error_error = v; });
+  readNumber(pnh, "effect_ranking_window", problems, [&](double v) { settings->effect_ranking_window = v; });
+  readNumber(pnh, "effect_ranking_period", problems, [&](double v) { settings->effect_ranking_period = v; });
+  readNumber(pnh, "valve_gain", problems, [&](double v) { settings->valve_gain = v; });
+  readNumber(pnh, "feed_forward_max_age", problems, [&](double v) { settings->feed_forward_max_age = v; });
+  readNumber(pnh, "feed_forward_slew_rate", problems,
+             [&](double v) { settings->feed_forward_slew_rate = v; });
+  readNumber(pnh, "feed_forward_parameter_rate", problems,
              [&](double v) { settings->feed_forward_parameter_rate = v; });
-  readNumber(pnh, "survey_seconds", &problems, [&](double v) { settings->survey_seconds = v; });
+  readNumber(pnh, "survey_seconds", problems, [&](double v) { settings->survey_seconds = v; });
   if (pnh.hasParam("choose_settings") && !pnh.getParam("choose_settings", settings->choose_settings)) {
-    problems.push_back("~choose_settings is invalid: must be true or false");
+    problems->push_back("~choose_settings is invalid: must be true or false");
   }
+}
+
+// The model's form and effects, and the cushion's joint.
+void readModelAndJoint(const ros::NodeHandle& pnh, IdentificationConfig* config, NodeSettings* settings,
+                       std::vector<std::string>* problems) {
   std::string form;
   if (pnh.hasParam("regression_form") &&
       (!pnh.getParam("regression_form", form) || !parseRegressionForm(form, &config->regression_form))) {
     // A number (_regression_form:=5) is no name either: refused, not ignored.
-    problems.push_back("~regression_form = " + (form.empty() ? std::string("(not a name)") : form) +
-                       " is invalid: allowed integral, derivative");
+    problems->push_back("~regression_form = " + (form.empty() ? std::string("(not a name)") : form) +
+                        " is invalid: allowed integral, derivative");
   }
   if (pnh.hasParam("joint_name") && (!pnh.getParam("joint_name", settings->joint_name) || settings->joint_name.empty())) {
-    problems.push_back("~joint_name is invalid: must be the name of a joint in the position topic's JointState");
+    problems->push_back(
+        "~joint_name is invalid: must be the name of a joint in the position topic's JointState");
   }
-  readStrings(pnh, "effects", &config->effects, &problems);
-  readStrings(pnh, "custom_effects", &config->custom_effects, &problems);
+  readStrings(pnh, "effects", &config->effects, problems);
+  readStrings(pnh, "custom_effects", &config->custom_effects, problems);
+}
 
+void checkNodeSettings(const ros::NodeHandle& pnh, const NodeSettings& settings,
+                       std::vector<std::string>* problems) {
+  const auto invalid = [&](const char* key, double v, const char* allowed) {
+    std::ostringstream s;
+    s << "~" << key << " = " << v << " is invalid: allowed " << allowed;
+    problems->push_back(s.str());
+  };
+  const auto positive = [&](const char* key, double v) {
+    if (!(std::isfinite(v) && v > 0.0)) invalid(key, v, "> 0");
+  };
+  positive("adequacy_warn_error", settings.adequacy_warn_error);
+  positive("adequacy_error_error", settings.adequacy_error_error);
+  positive("effect_ranking_period", settings.effect_ranking_period);
+  positive("feed_forward_max_age", settings.feed_forward_max_age);
+  positive("feed_forward_slew_rate", settings.feed_forward_slew_rate);
+  positive("feed_forward_parameter_rate", settings.feed_forward_parameter_rate);
+  if (pnh.hasParam("valve_gain") && !(std::isfinite(settings.valve_gain) && settings.valve_gain != 0.0)) {
+    invalid("valve_gain", settings.valve_gain, "finite and non-zero [1/V]");
+  }
+  if (!(settings.survey_seconds >= 5.0 && settings.survey_seconds <= 600.0)) {
+    invalid("survey_seconds", settings.survey_seconds, "[5, 600] s");
+  }
+  if (!(settings.effect_ranking_window >= 5.0 && settings.effect_ranking_window <= 3600.0)) {
+    invalid("effect_ranking_window", settings.effect_ranking_window, "[5, 3600] s");
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
+                                        SweepLimits* limits, NodeSettings* settings) {
+  std::vector<std::string> problems;
+  readConfigAndLimits(pnh, config, limits, &problems);
+  readNodeSettings(pnh, settings, &problems);
+  readModelAndJoint(pnh, config, settings, &problems);
   for (const auto& p : config->validate()) problems.push_back("~" + p);
   for (const auto& p : limits->validate()) problems.push_back("~" + p);
-  const auto positive = [&](const char* key, double v) {
-    if (!(std::isfinite(v) && v > 0.0)) {
-      std::ostringstream s;
-      s << "~" << key << " = " << v << " is invalid: allowed > 0";
-      problems.push_back(s.str());
-    }
-  };
-  positive("adequacy_warn_error", settings->adequacy_warn_error);
-  positive("adequacy_error_error", settings->adequacy_error_error);
-  positive("effect_ranking_period", settings->effect_ranking_period);
-  positive("feed_forward_max_age", settings->feed_forward_max_age);
-  positive("feed_forward_slew_rate", settings->feed_forward_slew_rate);
-  positive("feed_forward_parameter_rate", settings->feed_forward_parameter_rate);
-  if (pnh.hasParam("valve_gain") && !(std::isfinite(settings->valve_gain) && settings->valve_gain != 0.0)) {
-    std::ostringstream s;
-    s << "~valve_gain = " << settings->valve_gain << " is invalid: allowed finite and non-zero [1/V]";
-    problems.push_back(s.str());
-  }
-  if (!(settings->survey_seconds >= 5.0 && settings->survey_seconds <= 600.0)) {
-    std::ostringstream s;
-    s << "~survey_seconds = " << settings->survey_seconds << " is invalid: allowed [5, 600] s";
-    problems.push_back(s.str());
-  }
-  if (!(settings->effect_ranking_window >= 5.0 && settings->effect_ranking_window <= 3600.0)) {
-    std::ostringstream s;
-    s << "~effect_ranking_window = " << settings->effect_ranking_window << " is invalid: allowed [5, 3600] s";
-    problems.push_back(s.str());
-  }
+  checkNodeSettings(pnh, *settings, &problems);
   return problems;
 }
 

@@ -65,6 +65,95 @@ std::vector<std::string> parseAnalysisConfig(const std::string& yaml_text, const
   }
 }
 
+namespace {
+
+// A key of numericConfigKeys(): its number, checked.
+void readNumber(const std::string& key, const YAML::Node& value, IdentificationConfig* config,
+                std::vector<std::string>* problems) {
+  double number = 0.0;
+  try {
+    number = value.as<double>();
+  } catch (const YAML::Exception&) {
+    problems->push_back(key + ": '" + (value.IsScalar() ? value.as<std::string>() : "(a list or mapping)") +
+                        "' is not a number");
+    return;
+  }
+  const std::string problem = numericConfigProblem(key, number);
+  if (!problem.empty()) {
+    problems->push_back(problem);
+    return;
+  }
+  setNumericConfigValue(*config, key, number);
+}
+
+void readTopics(const YAML::Node& value, InputTopics* topics, std::vector<std::string>* problems) {
+  if (!value.IsMap()) {
+    problems->push_back("topics: must be a mapping {pressure: ..., position: ..., valve: ...}");
+    return;
+  }
+  for (const auto& topic : value) {
+    const std::string name = topic.first.as<std::string>();
+    std::string* target = name == "pressure"   ? &topics->pressure
+                          : name == "position" ? &topics->position
+                          : name == "valve"    ? &topics->valve
+                                               : nullptr;
+    if (!target || !topic.second.IsScalar()) {
+      problems->push_back("topics: '" + name + "' is not one of pressure, position, valve");
+      continue;
+    }
+    *target = topic.second.as<std::string>();
+  }
+}
+
+void readTopicDelays(const YAML::Node& value, IdentificationConfig* config,
+                     std::vector<std::string>* problems) {
+  if (!value.IsMap()) {
+    problems->push_back("topic_delays: must be a mapping {pressure: s, position: s, valve: s}");
+    return;
+  }
+  for (const auto& delay : value) {
+    const std::string name = delay.first.as<std::string>();
+    if (name != "pressure" && name != "position" && name != "valve") {
+      problems->push_back("topic_delays: '" + name + "' is not one of pressure, position, valve");
+      continue;
+    }
+    try {
+      setNumericConfigValue(*config, "topic_delays/" + name, delay.second.as<double>());
+    } catch (const YAML::Exception&) {
+      problems->push_back("topic_delays: " + name + " must be a number of seconds");
+    }
+  }
+}
+
+// One key that is not a number: false where it is not known.
+bool readOtherKey(const std::string& key, const YAML::Node& value, IdentificationConfig* config,
+                  InputTopics* topics, std::vector<std::string>* problems) {
+  if (key == "effects") {
+    config->effects = stringList(value, key, problems);
+  } else if (key == "custom_effects") {
+    config->custom_effects = stringList(value, key, problems);
+  } else if (key == "regression_form") {
+    if (!value.IsScalar() || !parseRegressionForm(value.as<std::string>(), &config->regression_form)) {
+      problems->push_back("regression_form: allowed integral, derivative");
+    }
+  } else if (key == "topics") {
+    readTopics(value, topics, problems);
+  } else if (key == "joint_name") {
+    if (!value.IsScalar() || value.as<std::string>().empty()) {
+      problems->push_back("joint_name: must be the name of a joint in the position topic's JointState");
+    } else {
+      topics->joint_name = value.as<std::string>();
+    }
+  } else if (key == "topic_delays") {
+    readTopicDelays(value, config, problems);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 std::vector<std::string> readAnalysisConfig(const YAML::Node& root, const std::string& path,
                                             IdentificationConfig* config, InputTopics* topics,
                                             std::vector<std::string>* keys_given) {
@@ -81,69 +170,8 @@ std::vector<std::string> readAnalysisConfig(const YAML::Node& root, const std::s
     const YAML::Node& value = entry.second;
     keys_given->push_back(key);
     if (std::find(numeric.begin(), numeric.end(), key) != numeric.end()) {
-      double number = 0.0;
-      try {
-        number = value.as<double>();
-      } catch (const YAML::Exception&) {
-        problems.push_back(key + ": '" + (value.IsScalar() ? value.as<std::string>() : "(a list or mapping)") +
-                           "' is not a number");
-        continue;
-      }
-      const std::string problem = numericConfigProblem(key, number);
-      if (!problem.empty()) {
-        problems.push_back(problem);
-        continue;
-      }
-      setNumericConfigValue(*config, key, number);
-    } else if (key == "effects") {
-      config->effects = stringList(value, key, &problems);
-    } else if (key == "custom_effects") {
-      config->custom_effects = stringList(value, key, &problems);
-    } else if (key == "regression_form") {
-      if (!value.IsScalar() || !parseRegressionForm(value.as<std::string>(), &config->regression_form)) {
-        problems.push_back("regression_form: allowed integral, derivative");
-      }
-    } else if (key == "topics") {
-      if (!value.IsMap()) {
-        problems.push_back("topics: must be a mapping {pressure: ..., position: ..., valve: ...}");
-        continue;
-      }
-      for (const auto& topic : value) {
-        const std::string name = topic.first.as<std::string>();
-        std::string* target = name == "pressure"   ? &topics->pressure
-                              : name == "position" ? &topics->position
-                              : name == "valve"    ? &topics->valve
-                                                   : nullptr;
-        if (!target || !topic.second.IsScalar()) {
-          problems.push_back("topics: '" + name + "' is not one of pressure, position, valve");
-          continue;
-        }
-        *target = topic.second.as<std::string>();
-      }
-    } else if (key == "joint_name") {
-      if (!value.IsScalar() || value.as<std::string>().empty()) {
-        problems.push_back("joint_name: must be the name of a joint in the position topic's JointState");
-        continue;
-      }
-      topics->joint_name = value.as<std::string>();
-    } else if (key == "topic_delays") {
-      if (!value.IsMap()) {
-        problems.push_back("topic_delays: must be a mapping {pressure: s, position: s, valve: s}");
-        continue;
-      }
-      for (const auto& delay : value) {
-        const std::string name = delay.first.as<std::string>();
-        if (name != "pressure" && name != "position" && name != "valve") {
-          problems.push_back("topic_delays: '" + name + "' is not one of pressure, position, valve");
-          continue;
-        }
-        try {
-          setNumericConfigValue(*config, "topic_delays/" + name, delay.second.as<double>());
-        } catch (const YAML::Exception&) {
-          problems.push_back("topic_delays: " + name + " must be a number of seconds");
-        }
-      }
-    } else {
+      readNumber(key, value, config, &problems);
+    } else if (!readOtherKey(key, value, config, topics, &problems)) {
       std::string allowed;
       for (const auto& k : numeric) allowed += k + ", ";
       problems.push_back("unknown key '" + key + "' (allowed: " + allowed +

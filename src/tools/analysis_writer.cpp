@@ -102,19 +102,67 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
   if (!file) throw std::runtime_error("cannot write " + path + " (disk full or no permission?)");
 }
 
-// What the analysis chose from the recording and why (SettingsFromRecording), or the settings as configured.
-void emitSettings(YAML::Emitter& out, const IdentificationConfig& config, const std::optional<SettingsChoice>& choice) {
+// The resolution study's candidate periods, each with its free run's error and change to the next finer.
+void emitResolutionStudy(YAML::Emitter& out, const std::vector<ResolutionCandidate>& study) {
+  out << YAML::Key << "study" << YAML::Value << YAML::BeginSeq;
+  for (const ResolutionCandidate& c : study) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "sample_period" << YAML::Value << c.sample_period;
+    if (std::isfinite(c.simulation_error_rms))
+      out << YAML::Key << "simulation_error_rms" << YAML::Value << c.simulation_error_rms;
+    if (std::isfinite(c.change_to_finer))
+      out << YAML::Key << "change_to_finer" << YAML::Value << c.change_to_finer;
+    if (std::isfinite(c.bulk_modulus)) out << YAML::Key << "bulk_modulus" << YAML::Value << c.bulk_modulus;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+}
+
+// What the first read of the recording found, and the valve fitted to its operation.
+void emitSurvey(YAML::Emitter& out, const SettingsChoice& choice) {
   static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
+  const RecordingSurvey& survey = choice.survey;
+  out << YAML::Key << "survey" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "seconds" << YAML::Value << survey.seconds;
+  out << YAML::Key << "message_intervals" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  for (int s = 0; s < kInputStreamCount; ++s)
+    out << YAML::Key << kNames[s] << YAML::Value << survey.message_interval[s];
+  out << YAML::EndMap;
+  out << YAML::Key << "pressure_noise" << YAML::Value << survey.pressure_noise;
+  out << YAML::Key << "cycles" << YAML::Value << survey.cycles;
+  out << YAML::Key << "shortest_drawing" << YAML::Value << survey.shortest_drawing;
+  out << YAML::EndMap;
+  if (!choice.valve) return;
+  const ValveOperationFit& v = *choice.valve;
+  out << YAML::Key << "valve_from_operation" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "used" << YAML::Value << choice.valve_from_operation;
+  out << YAML::Key << "natural_frequency" << YAML::Value << v.parameters.natural_frequency;
+  out << YAML::Key << "damping" << YAML::Value << v.parameters.damping;
+  out << YAML::Key << "gain" << YAML::Value << v.parameters.gain;
+  out << YAML::Key << "dead_time" << YAML::Value << v.parameters.dead_time;
+  out << YAML::Key << "residual_rms" << YAML::Value << v.residual_rms;
+  out << YAML::Key << "noise" << YAML::Value << v.noise_sigma;
+  out << YAML::EndMap;
+}
+
+// The settings as configured, where none were chosen from the recording.
+void emitFixedSettings(YAML::Emitter& out, const IdentificationConfig& config) {
+  for (const auto& [key, value] :
+       {std::pair<const char*, double>{"sample_period", config.resampler.sample_period},
+        {"moving_average_width", config.moving_average_width},
+        {"derivative_width", config.derivative_width},
+        {"identification_period", config.identification_period}}) {
+    out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value"
+        << YAML::Value << value << YAML::Key << "source" << YAML::Value << "fixed" << YAML::EndMap;
+  }
+}
+
+// What the analysis chose from the recording and why (SettingsFromRecording), or the settings as configured.
+void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
+                  const std::optional<SettingsChoice>& choice) {
   out << YAML::Key << "settings" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "chosen_from_recording" << YAML::Value << choice.has_value();
   if (!choice) {
-    for (const auto& [key, value] : {std::pair<const char*, double>{"sample_period", config.resampler.sample_period},
-                                     {"moving_average_width", config.moving_average_width},
-                                     {"derivative_width", config.derivative_width},
-                                     {"identification_period", config.identification_period}}) {
-      out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value
-          << value << YAML::Key << "source" << YAML::Value << "fixed" << YAML::EndMap;
-    }
+    emitFixedSettings(out, config);
     out << YAML::EndMap;
     return;
   }
@@ -142,48 +190,15 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config, const 
   out << YAML::Key << "free_run_spool" << YAML::Value
       << (choice->config.valve_model_drives_free_run ? "valve_model"
                                                      : (choice->survey.spool_measured ? "measured" : "configured_valve_model"));
-  out << YAML::Key << "study" << YAML::Value << YAML::BeginSeq;
-  for (const ResolutionCandidate& c : choice->study) {
-    out << YAML::Flow << YAML::BeginMap << YAML::Key << "sample_period" << YAML::Value << c.sample_period;
-    if (std::isfinite(c.simulation_error_rms)) out << YAML::Key << "simulation_error_rms" << YAML::Value << c.simulation_error_rms;
-    if (std::isfinite(c.change_to_finer)) out << YAML::Key << "change_to_finer" << YAML::Value << c.change_to_finer;
-    if (std::isfinite(c.bulk_modulus)) out << YAML::Key << "bulk_modulus" << YAML::Value << c.bulk_modulus;
-    out << YAML::EndMap;
-  }
-  out << YAML::EndSeq;
-  const RecordingSurvey& survey = choice->survey;
-  out << YAML::Key << "survey" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "seconds" << YAML::Value << survey.seconds;
-  out << YAML::Key << "message_intervals" << YAML::Value << YAML::Flow << YAML::BeginMap;
-  for (int s = 0; s < kInputStreamCount; ++s) out << YAML::Key << kNames[s] << YAML::Value << survey.message_interval[s];
-  out << YAML::EndMap;
-  out << YAML::Key << "pressure_noise" << YAML::Value << survey.pressure_noise;
-  out << YAML::Key << "cycles" << YAML::Value << survey.cycles;
-  out << YAML::Key << "shortest_drawing" << YAML::Value << survey.shortest_drawing;
-  out << YAML::EndMap;
-  if (choice->valve) {
-    const ValveOperationFit& v = *choice->valve;
-    out << YAML::Key << "valve_from_operation" << YAML::Value << YAML::Flow << YAML::BeginMap;
-    out << YAML::Key << "used" << YAML::Value << choice->valve_from_operation;
-    out << YAML::Key << "natural_frequency" << YAML::Value << v.parameters.natural_frequency;
-    out << YAML::Key << "damping" << YAML::Value << v.parameters.damping;
-    out << YAML::Key << "gain" << YAML::Value << v.parameters.gain;
-    out << YAML::Key << "dead_time" << YAML::Value << v.parameters.dead_time;
-    out << YAML::Key << "residual_rms" << YAML::Value << v.residual_rms;
-    out << YAML::Key << "noise" << YAML::Value << v.noise_sigma;
-    out << YAML::EndMap;
-  }
+  emitResolutionStudy(out, choice->study);
+  emitSurvey(out, *choice);
   out << YAML::Key << "seconds_spent" << YAML::Value << choice->seconds_spent;
   out << YAML::EndMap;
 }
 
-std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config, const OfflineResult& r,
-                        const std::vector<std::string>& outputs) {
+// The recording read: its topics, their health, and the offsets between their stamps.
+void emitInput(YAML::Emitter& out, const AnalysisInput& input, const OfflineResult& r) {
   static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
-  YAML::Emitter out;
-  out.SetDoublePrecision(6);
-  out << YAML::BeginMap;
-
   out << YAML::Key << "input" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "bag" << YAML::Value << input.bag;
   out << YAML::Key << "start" << YAML::Value << formatted("%.3f", input.start);
@@ -224,9 +239,10 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndMap;
   }
   out << YAML::EndMap;
+}
 
-  emitSettings(out, config, r.settings);
-
+// The identified model, and its refinement by the free run.
+void emitModel(YAML::Emitter& out, const IdentificationConfig& config, const OfflineResult& r) {
   out << YAML::Key << "model" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "effects" << YAML::Value << YAML::Flow << r.effects;
   out << YAML::Key << "regression_form" << YAML::Value << regressionFormName(config.regression_form);
@@ -249,7 +265,10 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndMap;
   }
   out << YAML::EndMap;
+}
 
+// How well the model fits: overall, and by phase and operating region.
+void emitFit(YAML::Emitter& out, const OfflineResult& r) {
   out << YAML::Key << "fit" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "samples" << YAML::Value << r.assessment.samples;
   out << YAML::Key << "cycles" << YAML::Value << r.strokes.cycles;
@@ -263,9 +282,12 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   emitRegions(out, "by_opening", r.assessment.by_opening, false);
   out << YAML::Key << "worst_regions" << YAML::Value << r.assessment.worst_regions;
   out << YAML::EndMap;
+}
 
+// The library effects tried on held-out cycles, and the staircase of verified additions.
+void emitCandidates(YAML::Emitter& out, const EffectRankingResult& ranking) {
   out << YAML::Key << "candidates" << YAML::Value << YAML::BeginSeq;
-  for (const auto& c : r.ranking.candidates) {
+  for (const auto& c : ranking.candidates) {
     out << YAML::BeginMap;
     out << YAML::Key << "effect" << YAML::Value << c.effect;
     out << YAML::Key << "error_reduction" << YAML::Value << c.error_reduction;
@@ -281,7 +303,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   out << YAML::EndSeq;
   // The staircase of verified additions; the last entry is the recommended model.
   out << YAML::Key << "steps" << YAML::Value << YAML::BeginSeq;
-  for (const auto& step : r.ranking.steps) {
+  for (const auto& step : ranking.steps) {
     out << YAML::Flow << YAML::BeginMap;
     out << YAML::Key << "add" << YAML::Value << step.add;
     out << YAML::Key << "held_out_error_rms" << YAML::Value << step.held_out_error_rms;
@@ -289,8 +311,12 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+}
+
+// Formulas proposed for what no library effect explains.
+void emitProposals(YAML::Emitter& out, const EffectRankingResult& ranking) {
   out << YAML::Key << "proposals" << YAML::Value << YAML::BeginSeq;
-  for (const auto& p : r.ranking.proposals) {
+  for (const auto& p : ranking.proposals) {
     out << YAML::BeginMap;
     out << YAML::Key << "expression" << YAML::Value << p.spec();
     out << YAML::Key << "error_reduction" << YAML::Value << p.error_reduction;
@@ -309,19 +335,25 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
-  if (!r.step_responses.empty()) {
-    // The first step test of the recording (the contract's single entry); the others in step_responses.
-    const StepResponse& s = r.step_responses.front();
-    out << YAML::Key << "step_response" << YAML::Value << YAML::Flow << YAML::BeginMap;
-    out << YAML::Key << "t63" << YAML::Value << s.t63;
-    out << YAML::Key << "final_pressure" << YAML::Value << s.final_pressure;
-    out << YAML::Key << "step_voltage" << YAML::Value << s.step_voltage;
-    out << YAML::Key << "recommended_max_sampling_time" << YAML::Value << s.recommendedMaxSamplingTime();
-    out << YAML::Key << "initial_pressure" << YAML::Value << s.initial_pressure;
-    out << YAML::Key << "start" << YAML::Value << YAML::Precision(16) << s.start;
-    out << YAML::Key << "steps_found" << YAML::Value << r.step_responses.size();
-    out << YAML::EndMap;
-  }
+}
+
+// The first step test of the recording (the contract's single entry); the others in step_responses.
+void emitStepResponse(YAML::Emitter& out, const std::vector<StepResponse>& step_responses) {
+  if (step_responses.empty()) return;
+  const StepResponse& s = step_responses.front();
+  out << YAML::Key << "step_response" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "t63" << YAML::Value << s.t63;
+  out << YAML::Key << "final_pressure" << YAML::Value << s.final_pressure;
+  out << YAML::Key << "step_voltage" << YAML::Value << s.step_voltage;
+  out << YAML::Key << "recommended_max_sampling_time" << YAML::Value << s.recommendedMaxSamplingTime();
+  out << YAML::Key << "initial_pressure" << YAML::Value << s.initial_pressure;
+  out << YAML::Key << "start" << YAML::Value << YAML::Precision(16) << s.start;
+  out << YAML::Key << "steps_found" << YAML::Value << step_responses.size();
+  out << YAML::EndMap;
+}
+
+// Whether the model explains the measurement, and what is missing.
+void emitAdequacy(YAML::Emitter& out, const OfflineResult& r) {
   out << YAML::Key << "adequacy" << YAML::Value << YAML::BeginMap;
   // Held-out errors exist only where the ranking could judge on held-out strokes.
   const bool judged = r.model.updates > 0 && r.strokes.cycles >= EffectRankingOptions().min_held_out_cycles;
@@ -334,57 +366,75 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   out << YAML::Key << "resolution_limited" << YAML::Value << r.ranking.resolution_limited;
   out << YAML::Key << "conclusion" << YAML::Value << r.ranking.conclusion;
   out << YAML::EndMap;
+}
 
-  if (r.valve) {
-    const ServoValveFit& fit = r.valve->fit;
-    out << YAML::Key << "valve" << YAML::Value << YAML::BeginMap;
-    if (fit.success) {
-      out << YAML::Key << "natural_frequency" << YAML::Value << fit.parameters.natural_frequency;
-      out << YAML::Key << "damping" << YAML::Value << fit.parameters.damping;
-      out << YAML::Key << "gain" << YAML::Value << fit.parameters.gain;
-      out << YAML::Key << "dead_time" << YAML::Value << fit.parameters.dead_time;
-      out << YAML::Key << "natural_frequency_std" << YAML::Value << fit.natural_frequency_std;
-      out << YAML::Key << "damping_std" << YAML::Value << fit.damping_std;
-      out << YAML::Key << "gain_std" << YAML::Value << fit.gain_std;
-      out << YAML::Key << "dead_time_std" << YAML::Value << fit.dead_time_std;
-      out << YAML::Key << "magnitude_residual_rms" << YAML::Value << fit.magnitude_residual_rms;
-      out << YAML::Key << "phase_residual_rms" << YAML::Value << fit.phase_residual_rms;
-    }
-    out << YAML::Key << "fit" << YAML::Value << fit.message;
-    out << YAML::Key << "points" << YAML::Value << YAML::BeginSeq;
-    for (const auto& p : r.valve->points) {
-      out << YAML::Flow << YAML::BeginMap;
-      out << YAML::Key << "frequency" << YAML::Value << p.frequency;
-      out << YAML::Key << "magnitude" << YAML::Value << p.magnitude;
-      out << YAML::Key << "phase" << YAML::Value << p.phase;
-      out << YAML::Key << "magnitude_std" << YAML::Value << p.magnitude_std;
-      out << YAML::Key << "phase_std" << YAML::Value << p.phase_std;
-      out << YAML::Key << "harmonic_distortion" << YAML::Value << p.harmonic_distortion;
-      out << YAML::Key << "distorted" << YAML::Value << p.distorted;
-      out << YAML::EndMap;
-    }
-    out << YAML::EndSeq;
+// The valve's frequency response from a sweep in the recording, and the model fitted to it.
+void emitValveSweep(YAML::Emitter& out, const RecordedSweep& valve) {
+  const ServoValveFit& fit = valve.fit;
+  out << YAML::Key << "valve" << YAML::Value << YAML::BeginMap;
+  if (fit.success) {
+    out << YAML::Key << "natural_frequency" << YAML::Value << fit.parameters.natural_frequency;
+    out << YAML::Key << "damping" << YAML::Value << fit.parameters.damping;
+    out << YAML::Key << "gain" << YAML::Value << fit.parameters.gain;
+    out << YAML::Key << "dead_time" << YAML::Value << fit.parameters.dead_time;
+    out << YAML::Key << "natural_frequency_std" << YAML::Value << fit.natural_frequency_std;
+    out << YAML::Key << "damping_std" << YAML::Value << fit.damping_std;
+    out << YAML::Key << "gain_std" << YAML::Value << fit.gain_std;
+    out << YAML::Key << "dead_time_std" << YAML::Value << fit.dead_time_std;
+    out << YAML::Key << "magnitude_residual_rms" << YAML::Value << fit.magnitude_residual_rms;
+    out << YAML::Key << "phase_residual_rms" << YAML::Value << fit.phase_residual_rms;
+  }
+  out << YAML::Key << "fit" << YAML::Value << fit.message;
+  out << YAML::Key << "points" << YAML::Value << YAML::BeginSeq;
+  for (const auto& p : valve.points) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "frequency" << YAML::Value << p.frequency;
+    out << YAML::Key << "magnitude" << YAML::Value << p.magnitude;
+    out << YAML::Key << "phase" << YAML::Value << p.phase;
+    out << YAML::Key << "magnitude_std" << YAML::Value << p.magnitude_std;
+    out << YAML::Key << "phase_std" << YAML::Value << p.phase_std;
+    out << YAML::Key << "harmonic_distortion" << YAML::Value << p.harmonic_distortion;
+    out << YAML::Key << "distorted" << YAML::Value << p.distorted;
     out << YAML::EndMap;
   }
-  if (r.onset) {
-    // An effect that starts within the recording, and the press cycle it starts in.
-    const EffectOnset& o = *r.onset;
-    out << YAML::Key << "change_within_recording" << YAML::Value << YAML::BeginMap;
-    out << YAML::Key << "effect" << YAML::Value << o.effect;
-    out << YAML::Key << "parameter" << YAML::Value << o.parameter;
-    out << YAML::Key << "unit" << YAML::Value << o.unit;
-    out << YAML::Key << "from_cycle" << YAML::Value << o.cycle;
-    out << YAML::Key << "from_time" << YAML::Value << o.time;
-    out << YAML::Key << "cycle_period" << YAML::Value << o.cycle_period;
-    out << YAML::Key << "before" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value
-        << o.before << YAML::Key << "std" << YAML::Value << o.before_std << YAML::EndMap;
-    out << YAML::Key << "after" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value
-        << o.after << YAML::Key << "std" << YAML::Value << o.after_std << YAML::EndMap;
-    out << YAML::Key << "t_statistic" << YAML::Value << o.t_statistic;
-    out << YAML::Key << "p_value" << YAML::Value << o.p_value;
-    out << YAML::Key << "explanation" << YAML::Value << o.explanation;
-    out << YAML::EndMap;
-  }
+  out << YAML::EndSeq;
+  out << YAML::EndMap;
+}
+
+// An effect that starts within the recording, and the press cycle it starts in.
+void emitOnset(YAML::Emitter& out, const EffectOnset& o) {
+  out << YAML::Key << "change_within_recording" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "effect" << YAML::Value << o.effect;
+  out << YAML::Key << "parameter" << YAML::Value << o.parameter;
+  out << YAML::Key << "unit" << YAML::Value << o.unit;
+  out << YAML::Key << "from_cycle" << YAML::Value << o.cycle;
+  out << YAML::Key << "from_time" << YAML::Value << o.time;
+  out << YAML::Key << "cycle_period" << YAML::Value << o.cycle_period;
+  out << YAML::Key << "before" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value"
+      << YAML::Value << o.before << YAML::Key << "std" << YAML::Value << o.before_std << YAML::EndMap;
+  out << YAML::Key << "after" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value"
+      << YAML::Value << o.after << YAML::Key << "std" << YAML::Value << o.after_std << YAML::EndMap;
+  out << YAML::Key << "t_statistic" << YAML::Value << o.t_statistic;
+  out << YAML::Key << "p_value" << YAML::Value << o.p_value;
+  out << YAML::Key << "explanation" << YAML::Value << o.explanation;
+  out << YAML::EndMap;
+}
+
+std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config,
+                        const OfflineResult& r, const std::vector<std::string>& outputs) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(6);
+  out << YAML::BeginMap;
+  emitInput(out, input, r);
+  emitSettings(out, config, r.settings);
+  emitModel(out, config, r);
+  emitFit(out, r);
+  emitCandidates(out, r.ranking);
+  emitProposals(out, r.ranking);
+  emitStepResponse(out, r.step_responses);
+  emitAdequacy(out, r);
+  if (r.valve) emitValveSweep(out, *r.valve);
+  if (r.onset) emitOnset(out, *r.onset);
   // The files this run wrote (each complete: written under a temporary name, renamed when whole).
   out << YAML::Key << "outputs" << YAML::Value << YAML::Flow << outputs;
   out << YAML::Key << "warnings" << YAML::Value << r.warnings;

@@ -170,16 +170,84 @@ class SurveyThenAnalysis {
   double expected_ = 0.0;
 };
 
+const char* const kInputTypes[kInputStreamCount] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
+                                                    "die_cushion_ident/ValveSignal"};
+
+// The bag's connections as input streams: each classified once (its topic and definition compared), not
+// each of its messages: its input stream, -1 for another topic, -2 for a definition (md5sum) other than
+// this package's.
+class InputConnections {
+ public:
+  explicit InputConnections(const std::string names[]) : names_(names) {}
+  int streamOf(const BagStreamReader::Connection& c) const {
+    for (int s = 0; s < kInputStreamCount; ++s) {
+      if (c.topic == names_[s]) return s;
+    }
+    return -1;
+  }
+  int classify(const BagStreamReader::Connection* c) {
+    static const std::string kMd5[kInputStreamCount] = {
+        ros::message_traits::MD5Sum<sensor_msgs::FluidPressure>::value(),
+        ros::message_traits::MD5Sum<sensor_msgs::JointState>::value(),
+        ros::message_traits::MD5Sum<ValveSignal>::value()};
+    for (const auto& [known, s] : classified_) {
+      if (known == c) return s;
+    }
+    int s = streamOf(*c);
+    if (s >= 0 && c->md5sum != kMd5[s]) s = -2;
+    classified_.emplace_back(c, s);
+    return s;
+  }
+
+ private:
+  const std::string* names_;
+  std::vector<std::pair<const BagStreamReader::Connection*, int>> classified_;
+};
+
+// One input message decoded into `sample` (the cushion's joint picked from a JointState); false, counted in
+// `pass` and `input`, where it cannot be used.
+bool decodeInput(const BagStreamReader::Message& m, int s, JointSelector& joints,
+                 sensor_msgs::JointState& joint_state, StreamSample& sample, BagPass& pass,
+                 AnalysisInput& input) {
+  bool decoded = false;
+  if (s == 0) {
+    decoded = decodeFluidPressure(m.data, m.size, &sample.stamp, &sample.first);
+  } else if (s == 2) {
+    decoded = decodeValveSignal(m.data, m.size, &sample.stamp, &sample.first, &sample.second);
+  } else {
+    double stamp = 0.0;
+    decoded = decodeJointState(m.data, m.size, &stamp, &joint_state.name, &joint_state.position,
+                               &joint_state.velocity);
+    joint_state.header.stamp = stamp >= 0.0 && stamp < 4e9 ? ros::Time(stamp) : ros::Time(0);
+    if (decoded) {
+      switch (joints.select(joint_state, &sample)) {
+        case JointSelector::Result::kSelected:
+          sample.stamp = stamp;
+          break;
+        case JointSelector::Result::kJointMissing:
+          ++input.unusable[s];
+          ++pass.joint_missing;
+          pass.joint_problem = joints.problem();
+          return false;
+        case JointSelector::Result::kNoPosition:
+          ++input.unusable[s];
+          ++pass.without_position;
+          return false;
+      }
+    }
+  }
+  if (!decoded) {
+    ++input.unusable[s];
+    ++pass.damaged;
+  }
+  return decoded;
+}
+
 // Feeds the input topics of `path` to `analysis` in recorded order (BagStreamReader: memory independent of
 // the recording's length, damage ends the reading with a reason); counts per topic in `input`.
 BagPass readInputs(const std::string& path, const std::string names[], const std::string& joint_name,
-                   SurveyThenAnalysis& analysis, AnalysisInput& input, const std::function<void(const std::string&)>& log) {
-  static const char* const kTypes[kInputStreamCount] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
-                                                       "die_cushion_ident/ValveSignal"};
-  static const std::string kMd5[kInputStreamCount] = {
-      ros::message_traits::MD5Sum<sensor_msgs::FluidPressure>::value(),
-      ros::message_traits::MD5Sum<sensor_msgs::JointState>::value(),
-      ros::message_traits::MD5Sum<ValveSignal>::value()};
+                   SurveyThenAnalysis& analysis, AnalysisInput& input,
+                   const std::function<void(const std::string&)>& log) {
   BagPass pass;
   JointSelector joints(joint_name);
   std::unique_ptr<BagStreamReader> reader;
@@ -196,38 +264,21 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   auto last_report = std::chrono::steady_clock::now();
   std::uint64_t done = 0;
   sensor_msgs::JointState joint_state;
-  const auto stream_of = [&](const BagStreamReader::Connection& c) {
-    for (int s = 0; s < kInputStreamCount; ++s) {
-      if (c.topic == names[s]) return s;
-    }
-    return -1;
-  };
+  InputConnections connections(names);
   const auto on_connection = [&](const BagStreamReader::Connection& c) {
     pass.listing += "\n  " + c.topic + " (" + c.datatype + ")";
-    const int s = stream_of(c);
+    const int s = connections.streamOf(c);
     if (s < 0) return;
-    if (c.datatype != kTypes[s]) {
-      fail(3, "topic " + names[s] + " has type " + c.datatype + ", expected " + kTypes[s] +
+    if (c.datatype != kInputTypes[s]) {
+      fail(3, "topic " + names[s] + " has type " + c.datatype + ", expected " + kInputTypes[s] +
                   " (set the topics in the config file if the inputs are elsewhere)");
     }
     pass.present.insert(names[s]);
   };
-  // Each connection classified once (its topic and definition compared), not each of its messages:
-  // its input stream, -1 for another topic, -2 for a definition (md5sum) other than this package's.
-  std::vector<std::pair<const BagStreamReader::Connection*, int>> classified;
-  const auto classify = [&](const BagStreamReader::Connection* c) {
-    for (const auto& [known, s] : classified) {
-      if (known == c) return s;
-    }
-    int s = stream_of(*c);
-    if (s >= 0 && c->md5sum != kMd5[s]) s = -2;
-    classified.emplace_back(c, s);
-    return s;
-  };
   const auto on_message = [&](const BagStreamReader::Message& m) {
     if (std::isnan(pass.first)) pass.first = m.time;
     pass.last = m.time;
-    const int s = classify(m.connection);
+    const int s = connections.classify(m.connection);
     if (s == -1) return;
     if (s == -2) {
       ++pass.mismatched;
@@ -235,38 +286,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
     }
     ++input.messages[s];
     StreamSample sample{0.0, 0.0, NAN};
-    bool decoded = false;
-    if (s == 0) {
-      decoded = decodeFluidPressure(m.data, m.size, &sample.stamp, &sample.first);
-    } else if (s == 2) {
-      decoded = decodeValveSignal(m.data, m.size, &sample.stamp, &sample.first, &sample.second);
-    } else {
-      double stamp = 0.0;
-      decoded = decodeJointState(m.data, m.size, &stamp, &joint_state.name, &joint_state.position,
-                                 &joint_state.velocity);
-      joint_state.header.stamp = stamp >= 0.0 && stamp < 4e9 ? ros::Time(stamp) : ros::Time(0);
-      if (decoded) {
-        switch (joints.select(joint_state, &sample)) {
-          case JointSelector::Result::kSelected:
-            sample.stamp = stamp;
-            break;
-          case JointSelector::Result::kJointMissing:
-            ++input.unusable[s];
-            ++pass.joint_missing;
-            pass.joint_problem = joints.problem();
-            return;
-          case JointSelector::Result::kNoPosition:
-            ++input.unusable[s];
-            ++pass.without_position;
-            return;
-        }
-      }
-    }
-    if (!decoded) {
-      ++input.unusable[s];
-      ++pass.damaged;
-      return;
-    }
+    if (!decodeInput(m, s, joints, joint_state, sample, pass, input)) return;
     analysis.push(static_cast<InputStream>(s), sample);
     // Progress every 2 s on long bags.
     if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {

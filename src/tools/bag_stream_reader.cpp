@@ -380,11 +380,50 @@ bool BagStreamReader::addConnection(const Fields& header, const std::uint8_t* da
   return true;
 }
 
-bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
-                                   const std::function<void(const Message&)>& on_message,
-                                   const std::function<void(const Connection&)>& on_connection,
-                                   std::size_t start, bool cut_off, std::size_t* damaged_at,
-                                   std::string* what) {
+namespace {
+
+// The record at `at` in a chunk's records: its header and data, `at` moved past it; the damage where it
+// does not hold together, nullptr where it does.
+const char* nextRecordInChunk(const std::uint8_t* data, std::size_t size, std::size_t* at,
+                              const std::uint8_t** header, std::uint32_t* header_length,
+                              const std::uint8_t** body, std::uint32_t* data_length) {
+  if (size - *at < 4) return "a chunk ends inside a record";
+  *header_length = readU32(data + *at);
+  if (*header_length > size - *at - 4) return "a record inside a chunk runs past the chunk";
+  *header = data + *at + 4;
+  *at += 4 + *header_length;
+  if (size - *at < 4) return "a chunk ends inside a record";
+  *data_length = readU32(data + *at);
+  if (*data_length > size - *at - 4) return "a record inside a chunk runs past the chunk";
+  *body = data + *at + 4;
+  *at += 4 + *data_length;
+  return nullptr;
+}
+
+// A chunk record's op from its header's views, or (a header with more fields than a message record's)
+// from the header parsed in full, as the other records are; -1 where it has none.
+int recordOp(const std::uint8_t* header, std::uint32_t header_length, bool parsed, FieldViews& views,
+             std::map<std::string, std::string>* fields) {
+  if (parsed && views["op"].size() == 1) return static_cast<std::uint8_t>(views["op"][0]);
+  if (!parsed && parseFields(header, header_length, fields) && (*fields)["op"].size() == 1) {
+    return static_cast<std::uint8_t>((*fields)["op"][0]);
+  }
+  return -1;
+}
+
+}  // namespace
+
+const BagStreamReader::Connection* BagStreamReader::knownConnection(std::uint32_t id,
+                                                                    const OnConnection& on_connection) {
+  auto c = connections_.find(id);
+  // Its connection record damaged (in the first chunk): the copy in the index at the end stands in.
+  if (c == connections_.end() && connectionFromIndex(id, on_connection)) c = connections_.find(id);
+  return c == connections_.end() ? nullptr : &c->second;
+}
+
+bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size, const OnMessage& on_message,
+                                   const OnConnection& on_connection, std::size_t start, bool cut_off,
+                                   std::size_t* damaged_at, std::string* what) {
   std::size_t at = start;
   // A message is delivered once the record after it holds together: damage that begins in a message's
   // bytes shows only where it reaches the next record's header, and that message is then dropped with it.
@@ -405,28 +444,15 @@ bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
   };
   while (at < size) {
     const std::size_t record = at;
-    if (size - at < 4) return damaged(record, "a chunk ends inside a record");
-    const std::uint32_t header_length = readU32(data + at);
-    if (header_length > size - at - 4) return damaged(record, "a record inside a chunk runs past the chunk");
-    const std::uint8_t* header = data + at + 4;
-    at += 4 + header_length;
-    if (size - at < 4) return damaged(record, "a chunk ends inside a record");
-    const std::uint32_t data_length = readU32(data + at);
-    if (data_length > size - at - 4) return damaged(record, "a record inside a chunk runs past the chunk");
-    const std::uint8_t* body = data + at + 4;
-    at += 4 + data_length;
+    const std::uint8_t *header = nullptr, *body = nullptr;
+    std::uint32_t header_length = 0, data_length = 0;
+    const char* broken = nextRecordInChunk(data, size, &at, &header, &header_length, &body, &data_length);
+    if (broken) return damaged(record, broken);
     FieldViews views;
     const bool parsed = parseFieldViews(header, header_length, &views);
-    std::uint8_t op = 0;
     Fields fields;
-    if (parsed && views["op"].size() == 1) {
-      op = static_cast<std::uint8_t>(views["op"][0]);
-    } else if (!parsed && parseFields(header, header_length, &fields) && fields["op"].size() == 1) {
-      // A header with more fields than a message record's: parsed in full, as the other records are.
-      op = static_cast<std::uint8_t>(fields["op"][0]);
-    } else {
-      return damaged(record, "a damaged record header inside a chunk");
-    }
+    const int op = recordOp(header, header_length, parsed, views, &fields);
+    if (op < 0) return damaged(record, "a damaged record header inside a chunk");
     if (op == kOpConnection) {
       deliver();
       if (fields.empty()) parseFields(header, header_length, &fields);
@@ -436,13 +462,11 @@ bool BagStreamReader::parseRecords(const std::uint8_t* data, std::size_t size,
       const std::string_view conn = views["conn"], time = views["time"];
       if (!parsed || conn.size() != 4 || time.size() != 8) return damaged(record, "a damaged message record");
       const std::uint32_t id = readU32(reinterpret_cast<const std::uint8_t*>(conn.data()));
-      auto c = connections_.find(id);
-      // Its connection record damaged (in the first chunk): the copy in the index at the end stands in.
-      if (c == connections_.end() && connectionFromIndex(id, on_connection)) c = connections_.find(id);
-      if (c == connections_.end()) return damaged(record, "a message of an unknown connection");
+      const Connection* connection = knownConnection(id, on_connection);
+      if (!connection) return damaged(record, "a message of an unknown connection");
       const auto* t = reinterpret_cast<const std::uint8_t*>(time.data());
       deliver();
-      pending.connection = &c->second;
+      pending.connection = connection;
       pending.time = readU32(t) + 1e-9 * readU32(t + 4);
       pending.data = body;
       pending.size = data_length;
@@ -531,6 +555,137 @@ void BagStreamReader::checkChunkInfo(const Fields& header, const std::vector<std
   }
 }
 
+std::optional<BagStreamReader::Next> BagStreamReader::readOtherRecord(std::uint8_t op, Fields& fields,
+                                                                      const std::vector<std::uint8_t>& data,
+                                                                      std::uint64_t record_start,
+                                                                      bool truncated,
+                                                                      const OnConnection& on_connection) {
+  if (op == kOpFileHeader) {
+    const std::string& index = fields["index_pos"];
+    const std::string& chunks = fields["chunk_count"];
+    if (index.size() == 8) index_position_ = u64Field(index);
+    if (chunks.size() == 4) chunk_count_ = readU32(reinterpret_cast<const std::uint8_t*>(chunks.data()));
+    // rosbag pads the file header to 4 kB with spaces: anything else there is damage.
+    if (std::any_of(data.begin(), data.end(), [](std::uint8_t b) { return b != ' '; })) {
+      damage_.push_back({record_start, "the file header's padding is damaged"});
+    }
+    return Next::kRecord;
+  }
+  if (op == kOpChunkInfo) {
+    ++chunk_infos_;
+    if (!truncated) checkChunkInfo(fields, data, record_start);
+    return Next::kRecord;
+  }
+  if (op == kOpIndexData) {
+    if (!truncated) checkIndexData(fields, data, record_start);
+    return Next::kRecord;
+  }
+  if (op != kOpChunk && truncated)
+    return Next::kStop;  // the index at the end, cut short: every message was read
+  if (op == kOpConnection) {
+    if (!addConnection(fields, data.data(), data.size(), on_connection)) {
+      damage_.push_back({record_start, "a damaged connection record (its copies differ)"});
+    }
+    return Next::kRecord;
+  }
+  if (op != kOpChunk) {
+    damage_.push_back({record_start, "a record of an unknown kind"});
+    return Next::kRecord;
+  }
+  return std::nullopt;
+}
+
+BagStreamReader::Next BagStreamReader::readCompressedChunk(const std::string& compression, std::uint32_t size,
+                                                           std::vector<std::uint8_t>& data,
+                                                           std::vector<std::uint8_t>& chunk,
+                                                           std::uint64_t record_start,
+                                                           const OnMessage& on_message,
+                                                           const OnConnection& on_connection) {
+  chunk.resize(size);
+  unsigned int produced = size;
+  int status = -1;
+  if (compression == "bz2") {
+    status = BZ2_bzBuffToBuffDecompress(reinterpret_cast<char*>(chunk.data()), &produced,
+                                        reinterpret_cast<char*>(data.data()),
+                                        static_cast<unsigned int>(data.size()), 0, 0) == BZ_OK
+                 ? 0
+                 : -1;
+  } else if (compression == "lz4") {
+    status = roslz4_buffToBuffDecompress(reinterpret_cast<char*>(data.data()),
+                                         static_cast<unsigned int>(data.size()),
+                                         reinterpret_cast<char*>(chunk.data()), &produced) == ROSLZ4_OK
+                 ? 0
+                 : -1;
+  } else {
+    fail("a chunk compressed with '" + compression + "', which this reader does not know");
+    return Next::kFailed;
+  }
+  if (status != 0 || produced != size) {
+    chunkDamaged(record_start, "a " + compression + " chunk that does not expand");
+    return Next::kRecord;
+  }
+  std::size_t damaged_at = 0;
+  std::string what;
+  if (!parseRecords(chunk.data(), chunk.size(), on_message, on_connection, 0, false, &damaged_at, &what)) {
+    chunkDamaged(record_start, what + " (in a " + compression + " chunk)");
+  }
+  return Next::kRecord;
+}
+
+BagStreamReader::Next BagStreamReader::readChunk(Fields& fields, std::size_t header_size,
+                                                 std::vector<std::uint8_t>& data,
+                                                 std::vector<std::uint8_t>& chunk, std::uint64_t record_start,
+                                                 bool truncated, const OnMessage& on_message,
+                                                 const OnConnection& on_connection) {
+  data_lost_ = truncated;
+  chunk_position_ = record_start;
+  chunk_messages_.clear();
+  chunk_damaged_ = false;
+  const std::uint64_t chunk_data = record_start + 8 + header_size;
+  const std::string compression = fields["compression"];
+  const std::string& size_field = fields["size"];
+  const std::uint32_t size =
+      size_field.size() == 4 ? readU32(reinterpret_cast<const std::uint8_t*>(size_field.data())) : 0;
+  if (size_field.size() != 4 || size > kMaxRecord ||
+      (compression == "none" && !truncated && size != data.size())) {
+    damaged_chunks_.insert(record_start);
+    return recover(record_start, "a damaged chunk header", record_start + 1) ? Next::kRecord : Next::kStop;
+  }
+  if (compression != "none") {
+    if (truncated) return Next::kStop;  // a compressed chunk cut short cannot be expanded
+    return readCompressedChunk(compression, size, data, chunk, record_start, on_message, on_connection);
+  }
+  // A chunk cut off while recording: its complete records are still good, the broken last one is the cut.
+  // After damage inside the chunk, the reading resumes at the next record that holds together in it;
+  // the chunk's own length holds (its size agrees), so the records after the chunk are read as they
+  // come, and its index records count what was lost.
+  std::size_t damaged_at = 0;
+  std::string what;
+  for (std::size_t start = 0; start < data.size();) {
+    if (parseRecords(data.data(), data.size(), on_message, on_connection, start, truncated, &damaged_at,
+                     &what))
+      break;
+    if (truncated) break;  // the chunk cut off while recording: its last record is the cut
+    chunkDamaged(chunk_data + damaged_at, what);
+    start = findRecordInChunk(data.data(), data.size(), damaged_at + 1);
+  }
+  return truncated ? Next::kStop : Next::kRecord;
+}
+
+bool BagStreamReader::finishRead(bool truncated) {
+  if (!damage_.empty()) {
+    if (error_.empty()) error_ = damage_[0].what + atByte(damage_[0].position);
+    return false;
+  }
+  // Cut off: inside a record, or short of the index the header promised (chunk info records missing).
+  cut_off_ = cut_off_ || truncated || position_ < file_size_ || chunk_infos_ < chunk_count_;
+  if (!cut_off_) return true;
+  // Before the index (or with none: cut while recording) messages were lost; inside it, none were.
+  data_lost_ = data_lost_ || index_position_ == 0 || position_ < index_position_;
+  return fail(data_lost_ ? "the bag ends inside its messages (cut off while recording or copying)"
+                         : "the bag ends inside its index (cut off after the last message)");
+}
+
 bool BagStreamReader::read(const std::function<void(const Message&)>& on_message,
                            const std::function<void(const Connection&)>& on_connection) {
   std::vector<std::uint8_t> header, data, chunk;
@@ -558,110 +713,16 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
       if (recover(record_start, "a damaged record header", record_start + 1)) continue;
       break;
     }
-    const std::uint8_t op = static_cast<std::uint8_t>(fields["op"][0]);
-    if (op == kOpFileHeader) {
-      const std::string& index = fields["index_pos"];
-      const std::string& chunks = fields["chunk_count"];
-      if (index.size() == 8) index_position_ = u64Field(index);
-      if (chunks.size() == 4) chunk_count_ = readU32(reinterpret_cast<const std::uint8_t*>(chunks.data()));
-      // rosbag pads the file header to 4 kB with spaces: anything else there is damage.
-      if (std::any_of(data.begin(), data.end(), [](std::uint8_t b) { return b != ' '; })) {
-        damage_.push_back({record_start, "the file header's padding is damaged"});
-      }
-      continue;
+    const auto op = static_cast<std::uint8_t>(fields["op"][0]);
+    std::optional<Next> next = readOtherRecord(op, fields, data, record_start, truncated, on_connection);
+    if (!next) {
+      next =
+          readChunk(fields, header.size(), data, chunk, record_start, truncated, on_message, on_connection);
     }
-    if (op == kOpChunkInfo) {
-      ++chunk_infos_;
-      if (!truncated) checkChunkInfo(fields, data, record_start);
-      continue;
-    }
-    if (op == kOpIndexData) {
-      if (!truncated) checkIndexData(fields, data, record_start);
-      continue;
-    }
-    if (op != kOpChunk && truncated) break;  // the index at the end, cut short: every message was read
-    if (op == kOpConnection) {
-      if (!addConnection(fields, data.data(), data.size(), on_connection)) {
-        damage_.push_back({record_start, "a damaged connection record (its copies differ)"});
-      }
-      continue;
-    }
-    if (op != kOpChunk) {
-      damage_.push_back({record_start, "a record of an unknown kind"});
-      continue;
-    }
-    data_lost_ = truncated;
-    chunk_position_ = record_start;
-    chunk_messages_.clear();
-    chunk_damaged_ = false;
-    const std::uint64_t chunk_data = record_start + 8 + header.size();
-    const std::string compression = fields["compression"];
-    const std::string& size_field = fields["size"];
-    const std::uint32_t size =
-        size_field.size() == 4 ? readU32(reinterpret_cast<const std::uint8_t*>(size_field.data())) : 0;
-    if (size_field.size() != 4 || size > kMaxRecord ||
-        (compression == "none" && !truncated && size != data.size())) {
-      damaged_chunks_.insert(record_start);
-      if (recover(record_start, "a damaged chunk header", record_start + 1)) continue;
-      break;
-    }
-    std::size_t damaged_at = 0;
-    if (compression == "none") {
-      // A chunk cut off while recording: its complete records are still good, the broken last one is the cut.
-      // After damage inside the chunk, the reading resumes at the next record that holds together in it;
-      // the chunk's own length holds (its size agrees), so the records after the chunk are read as they
-      // come, and its index records count what was lost.
-      for (std::size_t start = 0; start < data.size();) {
-        if (parseRecords(data.data(), data.size(), on_message, on_connection, start, truncated, &damaged_at,
-                         &what))
-          break;
-        if (truncated) break;  // the chunk cut off while recording: its last record is the cut
-        chunkDamaged(chunk_data + damaged_at, what);
-        start = findRecordInChunk(data.data(), data.size(), damaged_at + 1);
-      }
-    } else {
-      if (truncated) break;  // a compressed chunk cut short cannot be expanded
-      chunk.resize(size);
-      unsigned int produced = size;
-      int status = -1;
-      if (compression == "bz2") {
-        status = BZ2_bzBuffToBuffDecompress(reinterpret_cast<char*>(chunk.data()), &produced,
-                                            reinterpret_cast<char*>(data.data()),
-                                            static_cast<unsigned int>(data.size()), 0, 0) == BZ_OK
-                     ? 0
-                     : -1;
-      } else if (compression == "lz4") {
-        status = roslz4_buffToBuffDecompress(reinterpret_cast<char*>(data.data()),
-                                             static_cast<unsigned int>(data.size()),
-                                             reinterpret_cast<char*>(chunk.data()), &produced) == ROSLZ4_OK
-                     ? 0
-                     : -1;
-      } else {
-        return fail("a chunk compressed with '" + compression + "', which this reader does not know");
-      }
-      if (status != 0 || produced != size) {
-        chunkDamaged(record_start, "a " + compression + " chunk that does not expand");
-        continue;
-      }
-      if (!parseRecords(chunk.data(), chunk.size(), on_message, on_connection, 0, false, &damaged_at,
-                        &what)) {
-        chunkDamaged(record_start, what + " (in a " + compression + " chunk)");
-        continue;
-      }
-    }
-    if (truncated) break;
+    if (*next == Next::kFailed) return false;
+    if (*next == Next::kStop) break;
   }
-  if (!damage_.empty()) {
-    if (error_.empty()) error_ = damage_[0].what + atByte(damage_[0].position);
-    return false;
-  }
-  // Cut off: inside a record, or short of the index the header promised (chunk info records missing).
-  cut_off_ = cut_off_ || truncated || position_ < file_size_ || chunk_infos_ < chunk_count_;
-  if (!cut_off_) return true;
-  // Before the index (or with none: cut while recording) messages were lost; inside it, none were.
-  data_lost_ = data_lost_ || index_position_ == 0 || position_ < index_position_;
-  return fail(data_lost_ ? "the bag ends inside its messages (cut off while recording or copying)"
-                         : "the bag ends inside its index (cut off after the last message)");
+  return finishRead(truncated);
 }
 
 bool decodeFluidPressure(const std::uint8_t* data, std::uint32_t size, double* stamp, double* pressure) {

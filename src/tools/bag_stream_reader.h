@@ -4,6 +4,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -81,6 +82,27 @@ class BagStreamReader {
   bool addConnection(const Fields& header, const std::uint8_t* data, std::size_t size,
                      const std::function<void(const Connection&)>& on_connection);
   bool fail(const std::string& why);
+  using OnMessage = std::function<void(const Message&)>;
+  using OnConnection = std::function<void(const Connection&)>;
+  // What read() does after a record: go on, stop reading, or stop with fail() called.
+  enum class Next { kRecord, kStop, kFailed };
+  // A record that is not a chunk (file header, index, connection); nullopt for a chunk.
+  std::optional<Next> readOtherRecord(std::uint8_t op, Fields& fields, const std::vector<std::uint8_t>& data,
+                                      std::uint64_t record_start, bool truncated,
+                                      const OnConnection& on_connection);
+  // A chunk record: its messages, read as they come; `chunk` is the buffer a compressed one expands into.
+  Next readChunk(Fields& fields, std::size_t header_size, std::vector<std::uint8_t>& data,
+                 std::vector<std::uint8_t>& chunk, std::uint64_t record_start, bool truncated,
+                 const OnMessage& on_message, const OnConnection& on_connection);
+  // A compressed chunk's records, expanded; false where they do not expand.
+  Next readCompressedChunk(const std::string& compression, std::uint32_t size,
+                           std::vector<std::uint8_t>& data, std::vector<std::uint8_t>& chunk,
+                           std::uint64_t record_start, const OnMessage& on_message,
+                           const OnConnection& on_connection);
+  // The connection a message names; nullptr where neither its record nor the index's copy is known.
+  const Connection* knownConnection(std::uint32_t id, const OnConnection& on_connection);
+  // How read() ends: the damage found, or the file cut off.
+  bool finishRead(bool truncated);
   std::string atByte(std::uint64_t position) const;  // " at byte N of SIZE"
   // Damage inside the chunk being read: noted, the chunk's index records then count what was lost.
   void chunkDamaged(std::uint64_t at, const std::string& what);

@@ -45,98 +45,115 @@ void printTable(const DieCushionSimulator& plant, const HydraulicEstimate& e) {
 }
 }  // namespace
 
-int run(int argc, char** argv) {
+struct Options {
   int cycles = 5;
   int step_cycle = -1;
   double step_factor = 1.0;
   bool feed_forward = false;
   SimulatorConfig plant_config;
   IdentificationConfig config;
-  ArgumentParser arguments;
-  arguments.wholeNumber("--cycles", 1, 100000, &cycles)
-      .option("--plant-effects", [&](const std::string& v) { plant_config.effects = splitList(v); })
-      .option("--effects", [&](const std::string& v) { config.effects = splitList(v); })
+};
+
+void addOptions(ArgumentParser& arguments, Options& o) {
+  arguments.wholeNumber("--cycles", 1, 100000, &o.cycles)
+      .option("--plant-effects", [&o](const std::string& v) { o.plant_config.effects = splitList(v); })
+      .option("--effects", [&o](const std::string& v) { o.config.effects = splitList(v); })
       .option("--form",
-              [&](const std::string& v) {
-                if (!parseRegressionForm(v, &config.regression_form)) {
+              [&o](const std::string& v) {
+                if (!parseRegressionForm(v, &o.config.regression_form)) {
                   throw std::invalid_argument("--form must be integral or derivative, got '" + v + "'");
                 }
               })
-      .number("--forgetting", 0.0, 1.0, &config.forgetting_factor)
+      .number("--forgetting", 0.0, 1.0, &o.config.forgetting_factor)
       .flag("--noise-free",
-            [&] {
-              SensorConfig& s = plant_config.sensors;
+            [&o] {
+              SensorConfig& s = o.plant_config.sensors;
               s.pressure_noise = s.position_noise = s.velocity_noise = s.spool_noise = s.jitter = 0.0;
             })
       .option("--set",
-              [&](const std::string& kv) {
+              [&o](const std::string& kv) {
                 const auto eq = kv.find('=');
                 const auto value = eq == std::string::npos ? std::nullopt : numberIn(kv.substr(eq + 1), -1e300, 1e300);
-                if (!value || !setNumericConfigValue(config, kv.substr(0, eq), *value)) {
+                if (!value || !setNumericConfigValue(o.config, kv.substr(0, eq), *value)) {
                   throw std::invalid_argument("--set takes KEY=VALUE with a numeric configuration key, got '" + kv + "'");
                 }
               })
-      .flag("--feed-forward", [&] { feed_forward = true; })
+      .flag("--feed-forward", [&o] { o.feed_forward = true; })
       .option("--seed",
-              [&](const std::string& v) {
+              [&o](const std::string& v) {
                 const auto seed = wholeNumberIn(v, 0, std::numeric_limits<long>::max());
                 if (!seed) throw std::invalid_argument("--seed needs a whole number >= 0, got '" + v + "'");
-                plant_config.seed = static_cast<std::uint64_t>(*seed);
+                o.plant_config.seed = static_cast<std::uint64_t>(*seed);
               })
-      .number("--bulk-modulus-step", 1e-3, 1e3, &step_factor)
-      .wholeNumber("--step-cycle", 0, 100000, &step_cycle);
+      .number("--bulk-modulus-step", 1e-3, 1e3, &o.step_factor)
+      .wholeNumber("--step-cycle", 0, 100000, &o.step_cycle);
+}
+
+// The press cycles through the pipeline, with the estimate after each.
+void identifyCycles(const Options& o, DieCushionSimulator& plant, IdentificationPipeline& pipeline) {
+  std::vector<SimulatedMeasurement> messages;
+  const double cycle = plant.program().cycleDuration();
+  std::printf("die cushion simulator: %d press cycles of %.2f s, plant effects [", o.cycles, cycle);
+  for (const auto& e : o.plant_config.effects) std::printf(" %s", e.c_str());
+  std::printf(" ], model effects [");
+  for (const auto& e : o.config.effects) std::printf(" %s", e.c_str());
+  std::printf(" ], %s regression\n", regressionFormName(o.config.regression_form));
+  for (int k = 0; k < o.cycles; ++k) {
+    if (k == o.step_cycle) {
+      const double stepped = plant.trueParameter("bulk_modulus") * o.step_factor;
+      plant.setTrueParameter("bulk_modulus", stepped);
+      std::printf("cycle %d: bulk modulus steps to %.4g Pa\n", k, stepped);
+    }
+    const double end = (k + 1) * cycle;
+    while (plant.state().t < end - 1e-12) {
+      messages.clear();
+      plant.step(&messages);
+      for (const auto& m : messages) pipeline.push(m.stream, m.sample);
+    }
+    const auto e = pipeline.identifier().estimate();
+    std::printf("cycle %2d: K' = %.4g Pa, K_v = %.4g, V_dead = %.4g m^3, dp/dt error rms %.3g bar/s\n", k,
+                e.parameters[0].value, e.parameters[1].value, e.parameters[2].value,
+                e.equation_error_rms / 1e5);
+  }
+}
+
+// The valve model as a sweep identifies it (its parameters within 1 %); the hydraulics as identified.
+void compareFeedForwards(const Options& o, const IdentificationPipeline& pipeline) {
+  const HydraulicModel& model = pipeline.identifier().model();
+  const auto identified = std::make_shared<const PressureFeedForward>(
+      model, pipeline.identifier().physicalParameters(), o.plant_config.valve,
+      o.plant_config.controller.max_voltage);
+  const double pi = drawingPressureErrorRms(o.plant_config, nullptr, false, 3);
+  const double nominal = drawingPressureErrorRms(o.plant_config, nullptr, true, 3);
+  const double with_model = drawingPressureErrorRms(o.plant_config, identified, false, 3);
+  std::printf(
+      "\ndrawing pressure error rms over 3 press cycles (paper, Fig. 19):\n"
+      "  PI alone                                        %6.2f bar\n"
+      "  PI + the press's nominal velocity feed-forward  %6.2f bar\n"
+      "  PI + the identified model's feed-forward        %6.2f bar (%.0f times better than PI alone)\n",
+      pi * 1e-5, nominal * 1e-5, with_model * 1e-5, pi / with_model);
+}
+
+int run(int argc, char** argv) {
+  Options o;
+  ArgumentParser arguments;
+  addOptions(arguments, o);
   arguments.parseOrExit(argc, argv, "simulate_and_identify", kUsage);
   try {
-    config.geometry = plant_config.geometry;
-    DieCushionSimulator plant(plant_config);
-    IdentificationPipeline pipeline(config);
-    std::vector<SimulatedMeasurement> messages;
-    const double cycle = plant.program().cycleDuration();
-    std::printf("die cushion simulator: %d press cycles of %.2f s, plant effects [", cycles, cycle);
-    for (const auto& e : plant_config.effects) std::printf(" %s", e.c_str());
-    std::printf(" ], model effects [");
-    for (const auto& e : config.effects) std::printf(" %s", e.c_str());
-    std::printf(" ], %s regression\n", regressionFormName(config.regression_form));
-    for (int k = 0; k < cycles; ++k) {
-      if (k == step_cycle) {
-        const double stepped = plant.trueParameter("bulk_modulus") * step_factor;
-        plant.setTrueParameter("bulk_modulus", stepped);
-        std::printf("cycle %d: bulk modulus steps to %.4g Pa\n", k, stepped);
-      }
-      const double end = (k + 1) * cycle;
-      while (plant.state().t < end - 1e-12) {
-        messages.clear();
-        plant.step(&messages);
-        for (const auto& m : messages) pipeline.push(m.stream, m.sample);
-      }
-      const auto e = pipeline.identifier().estimate();
-      std::printf("cycle %2d: K' = %.4g Pa, K_v = %.4g, V_dead = %.4g m^3, dp/dt error rms %.3g bar/s\n", k,
-                  e.parameters[0].value, e.parameters[1].value, e.parameters[2].value,
-                  e.equation_error_rms / 1e5);
-    }
+    o.config.geometry = o.plant_config.geometry;
+    DieCushionSimulator plant(o.plant_config);
+    IdentificationPipeline pipeline(o.config);
+    identifyCycles(o, plant, pipeline);
     pipeline.flush();
     const auto e = pipeline.identifier().estimate();
     std::printf(
         "\nidentified after %d cycles (%llu RLS updates, %llu steps skipped in the dead zone, %llu with "
         "unusable samples):\n",
-        cycles, static_cast<unsigned long long>(e.updates),
+        o.cycles, static_cast<unsigned long long>(e.updates),
         static_cast<unsigned long long>(e.skipped_unexcited),
         static_cast<unsigned long long>(e.skipped_invalid));
     printTable(plant, e);
-    if (feed_forward) {
-      // The valve model as a sweep identifies it (its parameters within 1 %); the hydraulics as identified.
-      const HydraulicModel& model = pipeline.identifier().model();
-      const auto identified = std::make_shared<const PressureFeedForward>(
-          model, pipeline.identifier().physicalParameters(), plant_config.valve, plant_config.controller.max_voltage);
-      const double pi = drawingPressureErrorRms(plant_config, nullptr, false, 3);
-      const double nominal = drawingPressureErrorRms(plant_config, nullptr, true, 3);
-      const double with_model = drawingPressureErrorRms(plant_config, identified, false, 3);
-      std::printf("\ndrawing pressure error rms over 3 press cycles (paper, Fig. 19):\n"
-                  "  PI alone                                        %6.2f bar\n"
-                  "  PI + the press's nominal velocity feed-forward  %6.2f bar\n"
-                  "  PI + the identified model's feed-forward        %6.2f bar (%.0f times better than PI alone)\n",
-                  pi * 1e-5, nominal * 1e-5, with_model * 1e-5, pi / with_model);
-    }
+    if (o.feed_forward) compareFeedForwards(o, pipeline);
   } catch (const std::exception& ex) {
     std::cerr << "error: " << ex.what() << "\n";
     return 1;

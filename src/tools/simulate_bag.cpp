@@ -109,129 +109,284 @@ void threeNumbers(const std::string& text, double out[kInputStreamCount]) {
 
 }  // namespace
 
-int run(int argc, char** argv) {
+/// What the command line asks for. The plant's sensors, effects and true parameters as given; the plant
+/// itself is the press class's, built after parsing (buildPlant).
+struct Options {
   std::string out;
   double cycles = 6, hours = 0.0, epoch = 1.7e9, start_offset = 0.0;
   bool sweep = false, continuous_command = false;
   double step_test = 0.0;
   double effects_from_cycle = 0.0;
-  // The sensors and true parameters as given; the plant itself is the press class's, built after parsing.
   SimulatorConfig plant;
   PressClass press = PressClass::kSlowHydraulic;
   double variation = 0.0;
   std::string config_out, truth_out;
   Recording recording;
-  ArgumentParser arguments;
-  arguments.number("--cycles", 0.0, 1e6, &cycles)
-      .number("--hours", 0.0, 1e4, &hours)
+};
+
+void addPressOptions(ArgumentParser& arguments, Options& o) {
+  arguments.number("--cycles", 0.0, 1e6, &o.cycles)
+      .number("--hours", 0.0, 1e4, &o.hours)
       .option("--press",
-              [&](const std::string& v) {
-                if (!parsePressClass(v, &press)) {
+              [&o](const std::string& v) {
+                if (!parsePressClass(v, &o.press)) {
                   std::string known;
-                  for (PressClass c : allPressClasses()) known += std::string(known.empty() ? "" : ", ") + pressClassName(c);
+                  for (PressClass c : allPressClasses())
+                    known += std::string(known.empty() ? "" : ", ") + pressClassName(c);
                   throw std::invalid_argument("--press '" + v + "' is not a press class (" + known + ")");
                 }
               })
-      .number("--variation", 0.0, 1e9, &variation)
-      .option("--write-config", [&](const std::string& v) { config_out = v; })
-      .option("--write-truth", [&](const std::string& v) { truth_out = v; })
-      .option("--plant-effects", [&](const std::string& v) { plant.effects = splitList(v); })
-      .option("--custom-effect", [&](const std::string& v) { plant.custom_effects.push_back(v); })
+      .number("--variation", 0.0, 1e9, &o.variation)
+      .option("--write-config", [&o](const std::string& v) { o.config_out = v; })
+      .option("--write-truth", [&o](const std::string& v) { o.truth_out = v; })
+      .option("--plant-effects", [&o](const std::string& v) { o.plant.effects = splitList(v); })
+      .option("--custom-effect", [&o](const std::string& v) { o.plant.custom_effects.push_back(v); })
       .option("--set",
-              [&](const std::string& kv) {
+              [&o](const std::string& kv) {
                 const auto eq = kv.find('=');
                 const auto value = eq == std::string::npos ? std::nullopt : numberIn(kv.substr(eq + 1), -1e300, 1e300);
-                if (!value) throw std::invalid_argument("--set needs NAME=VALUE with a finite number, got '" + kv + "'");
-                plant.parameters[kv.substr(0, eq)] = *value;
+                if (!value)
+                  throw std::invalid_argument("--set needs NAME=VALUE with a finite number, got '" + kv +
+                                              "'");
+                o.plant.parameters[kv.substr(0, eq)] = *value;
               })
       .option("--seed",
-              [&](const std::string& v) {
+              [&o](const std::string& v) {
                 const auto seed = wholeNumberIn(v, 0, std::numeric_limits<long>::max());
                 if (!seed) throw std::invalid_argument("--seed needs a whole number >= 0, got '" + v + "'");
-                plant.seed = static_cast<std::uint64_t>(*seed);
+                o.plant.seed = static_cast<std::uint64_t>(*seed);
               })
-      .flag("--sweep", [&] { sweep = true; })
+      .flag("--sweep", [&o] { o.sweep = true; })
       .option("--step-test",
-              [&](const std::string& v) {
+              [&o](const std::string& v) {
                 const auto step = numberIn(v, -10.0, 10.0);
                 if (!step || *step == 0.0) {
                   throw std::invalid_argument("--step-test needs a voltage step in [-10, 10] V, not 0, got '" + v + "'");
                 }
-                step_test = *step;
+                o.step_test = *step;
               })
-      .flag("--no-spool", [&] { plant.sensors.measure_spool = false; })
-      .flag("--no-velocity", [&] { plant.sensors.publish_velocity = false; })
-      .option("--joints", [&](const std::string& v) { recording.joints = splitList(v); })
-      .option("--joint-name", [&](const std::string& v) { recording.cushion_joint = v; })
+      .number("--effects-from-cycle", 0.0, 1e6, &o.effects_from_cycle)
+      .number("--epoch", 0.0, 4e9, &o.epoch)
+      .positional("output bag", 1, [&o](const std::string& v) { o.out = v; });
+}
+
+void addSensorOptions(ArgumentParser& arguments, Options& o) {
+  arguments.flag("--no-spool", [&o] { o.plant.sensors.measure_spool = false; })
+      .flag("--no-velocity", [&o] { o.plant.sensors.publish_velocity = false; })
+      .option("--joints", [&o](const std::string& v) { o.recording.joints = splitList(v); })
+      .option("--joint-name", [&o](const std::string& v) { o.recording.cushion_joint = v; })
       .option("--rates",
-              [&](const std::string& v) {
+              [&o](const std::string& v) {
                 double rates[kInputStreamCount];
                 threeNumbers(v, rates);
                 for (double rate : rates) {
-                  if (!(rate > 0.0)) throw std::invalid_argument("--rates needs three rates above 0 Hz, got '" + v + "'");
+                  if (!(rate > 0.0))
+                    throw std::invalid_argument("--rates needs three rates above 0 Hz, got '" + v + "'");
                 }
-                plant.sensors.pressure_rate = rates[0];
-                plant.sensors.position_rate = rates[1];
-                plant.sensors.valve_rate = rates[2];
+                o.plant.sensors.pressure_rate = rates[0];
+                o.plant.sensors.position_rate = rates[1];
+                o.plant.sensors.valve_rate = rates[2];
               })
-      .option("--stamp-offsets", [&](const std::string& v) { threeNumbers(v, recording.stamp_offsets); })
-      .flag("--continuous-command", [&] { continuous_command = true; })
-      .number("--start-offset", 0.0, 1e6, &start_offset)
-      .number("--effects-from-cycle", 0.0, 1e6, &effects_from_cycle)
-      .number("--epoch", 0.0, 4e9, &epoch)
-      .positional("output bag", 1, [&](const std::string& v) { out = v; });
+      .option("--stamp-offsets", [&o](const std::string& v) { threeNumbers(v, o.recording.stamp_offsets); })
+      .flag("--continuous-command", [&o] { o.continuous_command = true; })
+      .number("--start-offset", 0.0, 1e6, &o.start_offset);
+}
+
+/// What the parser cannot check option by option; "" when consistent.
+std::string inconsistency(const Options& o) {
+  if (o.out.empty()) return std::string("no output bag given\n") + kUsage;
+  const auto& joints = o.recording.joints;
+  if (std::find(joints.begin(), joints.end(), o.recording.cushion_joint) == joints.end()) {
+    return "--joint-name '" + o.recording.cushion_joint + "' is not among --joints";
+  }
+  if (o.variation != std::floor(o.variation)) {
+    std::ostringstream text;
+    text << "--variation needs a whole number, got " << o.variation;
+    return text.str();
+  }
+  return "";
+}
+
+// The class's press with the options' sensors, effects and true parameters on top.
+SimulatorConfig buildPlant(const Options& o) {
+  SimulatorConfig built =
+      pressClassPlant(o.press, static_cast<std::uint64_t>(o.variation), o.plant.effects, o.plant.seed);
+  built.sensors = o.plant.sensors;
+  built.custom_effects = o.plant.custom_effects;
+  for (const auto& [name, value] : o.plant.parameters) built.parameters[name] = value;
+  return built;
+}
+
+bool writeConfig(const Options& o, const SimulatorConfig& plant) {
+  std::ofstream file(o.config_out);
+  file << "# The press simulate_bag recorded (" << pressClassName(o.press) << ", variation " << o.variation
+       << "): its geometry for analyze_bag --config.\n"
+       << "piston_area: " << plant.geometry.piston_area << "\nstroke_length: " << plant.geometry.stroke_length
+       << "\nsupply_pressure: " << plant.geometry.supply_pressure << "\n";
+  // Several joints on the position topic: the cushion's name, as its user would configure it.
+  if (o.recording.joints.size() > 1) file << "joint_name: " << o.recording.cushion_joint << "\n";
+  return static_cast<bool>(file);
+}
+
+// The plant's true parameters, by name (every one the simulated model has, effects included), and its valve.
+bool writeTruth(const Options& o, const SimulatorConfig& plant) {
+  const DieCushionSimulator probe(plant);
+  std::ofstream file(o.truth_out);
+  file.precision(10);
+  file << "# The true parameters of the press simulate_bag recorded (" << pressClassName(o.press)
+       << ", variation " << o.variation << ").\n";
+  const auto& infos = probe.model().parameterInfos();
+  for (std::size_t i = 0; i < infos.size(); ++i)
+    file << infos[i].name << ": " << probe.trueParameters()(i) << "\n";
+  file << "valve_natural_frequency: " << plant.valve.natural_frequency
+       << "\nvalve_damping: " << plant.valve.damping << "\nvalve_gain: " << plant.valve.gain
+       << "\nvalve_dead_time: " << plant.valve.dead_time << "\n";
+  if (o.effects_from_cycle > 0.0) {
+    file << "effects_from_cycle: " << o.effects_from_cycle
+         << "\neffects_from_time: " << o.effects_from_cycle * probe.program().cycleDuration() - o.start_offset
+         << "\n";
+  }
+  return static_cast<bool>(file);
+}
+
+/// The press cycles; returns where an appended test starts [s of the recording].
+double recordPressCycles(const Options& o, const SimulatorConfig& plant, BagRecorder& recorder) {
+  DieCushionSimulator press(plant);
+  const double duration = o.hours > 0.0 ? o.hours * 3600.0 : o.cycles * press.program().cycleDuration();
+  std::vector<SimulatedMeasurement> messages;
+  // The effects' own parameters (after the base model's three) held at 0 until their cycle.
+  const ParameterVector effect_truth = press.trueParameters();
+  const auto& infos = press.model().parameterInfos();
+  const double effects_from = o.effects_from_cycle * press.program().cycleDuration();
+  bool effects_acting = !(effects_from > 0.0);
+  const auto setEffects = [&](bool acting) {
+    for (std::size_t i = HydraulicModel::kDeadVolume + 1; i < infos.size(); ++i) {
+      press.setTrueParameter(infos[i].name, acting ? effect_truth(static_cast<Eigen::Index>(i)) : 0.0);
+    }
+  };
+  if (!effects_acting) setEffects(false);
+  while (press.state().t < duration + o.start_offset) {
+    if (!effects_acting && press.state().t >= effects_from) {
+      setEffects(true);
+      effects_acting = true;
+    }
+    messages.clear();
+    press.step(&messages);
+    if (press.state().t < o.start_offset) continue;  // not recorded yet: the recording starts mid-stroke
+    for (const auto& m : messages) recorder.write(m, -o.start_offset);
+  }
+  return press.state().t - o.start_offset + 2.0;
+}
+
+// What a live sweep's safety check sees of the cushion, from its messages.
+struct SweepWatch {
+  PlantCondition condition;
+  double spool_stamp = -1e9, pressure_stamp = -1e9;
+  CausalVelocity position_rate;
+
+  void see(const SimulatedMeasurement& m, ValveSweep& valve_sweep) {
+    if (m.stream == InputStream::kPressure) {
+      condition.pressure = m.sample.first;
+      pressure_stamp = m.sample.stamp;
+    } else if (m.stream == InputStream::kPosition) {
+      // Without a velocity channel the safety check uses the node's causal slope of the positions.
+      position_rate.push(m.sample.stamp, m.sample.first);
+      condition.velocity = std::isfinite(m.sample.second) ? m.sample.second : position_rate.velocity();
+    } else {
+      if (std::isfinite(m.sample.second)) spool_stamp = m.sample.stamp;
+      valve_sweep.addValveSample(m.sample.stamp, m.sample.first, m.sample.second);
+    }
+  }
+};
+
+/// The same cushion standing at rest from `offset` on, swept as ValveSweep sweeps it live; returns where
+/// the next appended test starts.
+double recordSweep(const Options& o, const SimulatorConfig& plant, double offset, BagRecorder& recorder) {
+  SimulatorConfig at_rest = plant;
+  at_rest.cycle.rest_time = 1e9;
+  DieCushionSimulator cushion(at_rest);
+  ValveSweep valve_sweep{SweepLimits()};
+  SweepWatch watch;
+  SweepRequest request;
+  request.offset = 0.1;
+  bool started = false;
+  std::vector<SimulatedMeasurement> messages;
+  while (cushion.state().t < 600.0) {
+    const double now = cushion.state().t;
+    watch.condition.pressure_age = now - watch.pressure_stamp;
+    watch.condition.spool_age = now - watch.spool_stamp;
+    if (!started && now > 0.2) {
+      const std::string refusal = valve_sweep.start(request, now, watch.condition);
+      if (!refusal.empty()) throw std::runtime_error("sweep refused: " + refusal);
+      started = true;
+    }
+    valve_sweep.supervise(now, watch.condition);
+    const auto u = valve_sweep.command(now);
+    if (o.continuous_command && started) {
+      cushion.setValveCommandSignal([&valve_sweep](double t) { return valve_sweep.commandAt(t); });
+    } else if (u) {
+      cushion.setValveCommandOverride(*u);
+    }
+    messages.clear();
+    cushion.step(&messages);
+    for (const auto& m : messages) {
+      recorder.write(m, offset);
+      watch.see(m, valve_sweep);
+    }
+    if (started && !valve_sweep.running()) break;
+  }
+  if (valve_sweep.state() != ValveSweep::State::kFinished) {
+    throw std::runtime_error("sweep did not finish: " + valve_sweep.abortReason());
+  }
+  cushion.setValveCommandSignal({});
+  for (int i = 0; i < 500; ++i) {  // half a second at rest after the sweep
+    messages.clear();
+    cushion.setValveCommandOverride(valve_sweep.command(cushion.state().t).value_or(request.offset));
+    cushion.step(&messages);
+    for (const auto& m : messages) recorder.write(m, offset);
+  }
+  return offset + cushion.state().t + 2.0;
+}
+
+// The cushion at rest under its controller, then the command held at its last value for 0.3 s (as
+// ~start_step_test holds the offset), stepped by step_test for 1.5 s, and back to the controller.
+void recordStepTest(const Options& o, const SimulatorConfig& plant, double offset, BagRecorder& recorder) {
+  SimulatorConfig at_rest = plant;
+  at_rest.cycle.rest_time = 1e9;
+  DieCushionSimulator cushion(at_rest);
+  std::vector<SimulatedMeasurement> messages;
+  const auto run = [&](double until) {
+    while (cushion.state().t < until - 1e-12) {
+      messages.clear();
+      cushion.step(&messages);
+      for (const auto& m : messages) recorder.write(m, offset);
+    }
+  };
+  run(0.7);
+  const double held = cushion.state().u;
+  cushion.setValveCommandOverride(held);
+  run(1.0);
+  cushion.setValveCommandOverride(held + o.step_test);
+  run(2.5);
+  cushion.setValveCommandOverride(std::nullopt);
+  run(3.0);
+}
+
+int run(int argc, char** argv) {
+  Options o;
+  ArgumentParser arguments;
+  addPressOptions(arguments, o);
+  addSensorOptions(arguments, o);
   arguments.parseOrExit(argc, argv, "simulate_bag", kUsage);
-  if (out.empty()) {
-    std::cerr << "simulate_bag: no output bag given\n" << kUsage;
+  if (const std::string problem = inconsistency(o); !problem.empty()) {
+    std::cerr << "simulate_bag: " << problem << (problem.back() == '\n' ? "" : "\n");
     return 2;
   }
-  if (std::find(recording.joints.begin(), recording.joints.end(), recording.cushion_joint) ==
-      recording.joints.end()) {
-    std::cerr << "simulate_bag: --joint-name '" << recording.cushion_joint << "' is not among --joints\n";
-    return 2;
-  }
-  if (variation != std::floor(variation)) {
-    std::cerr << "simulate_bag: --variation needs a whole number, got " << variation << "\n";
-    return 2;
-  }
-  {
-    // The class's press with the options' sensors, effects and true parameters on top.
-    SimulatorConfig built = pressClassPlant(press, static_cast<std::uint64_t>(variation), plant.effects, plant.seed);
-    built.sensors = plant.sensors;
-    built.custom_effects = plant.custom_effects;
-    for (const auto& [name, value] : plant.parameters) built.parameters[name] = value;
-    plant = built;
-  }
-  if (!config_out.empty()) {
-    std::ofstream file(config_out);
-    file << "# The press simulate_bag recorded (" << pressClassName(press) << ", variation " << variation
-         << "): its geometry for analyze_bag --config.\n"
-         << "piston_area: " << plant.geometry.piston_area << "\nstroke_length: " << plant.geometry.stroke_length
-         << "\nsupply_pressure: " << plant.geometry.supply_pressure << "\n";
-    // Several joints on the position topic: the cushion's name, as its user would configure it.
-    if (recording.joints.size() > 1) file << "joint_name: " << recording.cushion_joint << "\n";
-    if (!file) {
-      std::cerr << "simulate_bag: cannot write " << config_out << "\n";
-      return 1;
-    }
-  }
-  if (!truth_out.empty()) {
-    // The plant's true parameters, by name (every one the simulated model has, effects included), and its valve.
-    const DieCushionSimulator probe(plant);
-    std::ofstream file(truth_out);
-    file.precision(10);
-    file << "# The true parameters of the press simulate_bag recorded (" << pressClassName(press) << ", variation "
-         << variation << ").\n";
-    const auto& infos = probe.model().parameterInfos();
-    for (std::size_t i = 0; i < infos.size(); ++i) file << infos[i].name << ": " << probe.trueParameters()(i) << "\n";
-    file << "valve_natural_frequency: " << plant.valve.natural_frequency << "\nvalve_damping: " << plant.valve.damping
-         << "\nvalve_gain: " << plant.valve.gain << "\nvalve_dead_time: " << plant.valve.dead_time << "\n";
-    if (effects_from_cycle > 0.0) {
-      file << "effects_from_cycle: " << effects_from_cycle
-           << "\neffects_from_time: " << effects_from_cycle * probe.program().cycleDuration() - start_offset << "\n";
-    }
-    if (!file) {
-      std::cerr << "simulate_bag: cannot write " << truth_out << "\n";
+  const SimulatorConfig plant = buildPlant(o);
+  for (const auto& [path, write] :
+       {std::make_pair(o.config_out, &writeConfig), std::make_pair(o.truth_out, &writeTruth)}) {
+    if (!path.empty() && !write(o, plant)) {
+      std::cerr << "simulate_bag: cannot write " << path << "\n";
       return 1;
     }
   }
@@ -240,113 +395,10 @@ int run(int argc, char** argv) {
     return 2;
   }
   try {
-    BagRecorder recorder(out, epoch, recording);
-    DieCushionSimulator press(plant);
-    const double duration = hours > 0.0 ? hours * 3600.0 : cycles * press.program().cycleDuration();
-    std::vector<SimulatedMeasurement> messages;
-    // The effects' own parameters (after the base model's three) held at 0 until their cycle.
-    const ParameterVector effect_truth = press.trueParameters();
-    const auto& infos = press.model().parameterInfos();
-    const double effects_from = effects_from_cycle * press.program().cycleDuration();
-    bool effects_acting = !(effects_from > 0.0);
-    const auto setEffects = [&](bool acting) {
-      for (std::size_t i = HydraulicModel::kDeadVolume + 1; i < infos.size(); ++i) {
-        press.setTrueParameter(infos[i].name, acting ? effect_truth(static_cast<Eigen::Index>(i)) : 0.0);
-      }
-    };
-    if (!effects_acting) setEffects(false);
-    while (press.state().t < duration + start_offset) {
-      if (!effects_acting && press.state().t >= effects_from) {
-        setEffects(true);
-        effects_acting = true;
-      }
-      messages.clear();
-      press.step(&messages);
-      if (press.state().t < start_offset) continue;  // not recorded yet: the recording starts mid-stroke
-      for (const auto& m : messages) recorder.write(m, -start_offset);
-    }
-    double next_block = press.state().t - start_offset + 2.0;  // [s] where an appended test starts
-    if (sweep) {
-      // The same cushion standing at rest two seconds later, swept as ValveSweep sweeps it live.
-      SimulatorConfig at_rest = plant;
-      at_rest.cycle.rest_time = 1e9;
-      DieCushionSimulator cushion(at_rest);
-      ValveSweep valve_sweep{SweepLimits()};
-      const double offset = press.state().t - start_offset + 2.0;
-      PlantCondition condition;
-      double spool_stamp = -1e9, pressure_stamp = -1e9;
-      CausalVelocity position_rate;
-      SweepRequest request;
-      request.offset = 0.1;
-      bool started = false;
-      while (cushion.state().t < 600.0) {
-        const double now = cushion.state().t;
-        condition.pressure_age = now - pressure_stamp;
-        condition.spool_age = now - spool_stamp;
-        if (!started && now > 0.2) {
-          const std::string refusal = valve_sweep.start(request, now, condition);
-          if (!refusal.empty()) throw std::runtime_error("sweep refused: " + refusal);
-          started = true;
-        }
-        valve_sweep.supervise(now, condition);
-        const auto u = valve_sweep.command(now);
-        if (continuous_command && started) {
-          cushion.setValveCommandSignal([&valve_sweep](double t) { return valve_sweep.commandAt(t); });
-        } else if (u) {
-          cushion.setValveCommandOverride(*u);
-        }
-        messages.clear();
-        cushion.step(&messages);
-        for (const auto& m : messages) {
-          recorder.write(m, offset);
-          if (m.stream == InputStream::kPressure) {
-            condition.pressure = m.sample.first;
-            pressure_stamp = m.sample.stamp;
-          } else if (m.stream == InputStream::kPosition) {
-            // Without a velocity channel the safety check uses the node's causal slope of the positions.
-            position_rate.push(m.sample.stamp, m.sample.first);
-            condition.velocity = std::isfinite(m.sample.second) ? m.sample.second : position_rate.velocity();
-          } else {
-            if (std::isfinite(m.sample.second)) spool_stamp = m.sample.stamp;
-            valve_sweep.addValveSample(m.sample.stamp, m.sample.first, m.sample.second);
-          }
-        }
-        if (started && !valve_sweep.running()) break;
-      }
-      if (valve_sweep.state() != ValveSweep::State::kFinished) {
-        throw std::runtime_error("sweep did not finish: " + valve_sweep.abortReason());
-      }
-      cushion.setValveCommandSignal({});
-      for (int i = 0; i < 500; ++i) {  // half a second at rest after the sweep
-        messages.clear();
-        cushion.setValveCommandOverride(valve_sweep.command(cushion.state().t).value_or(request.offset));
-        cushion.step(&messages);
-        for (const auto& m : messages) recorder.write(m, offset);
-      }
-      next_block = offset + cushion.state().t + 2.0;
-    }
-    if (step_test != 0.0) {
-      // The cushion at rest under its controller, then the command held at its last value for 0.3 s (as
-      // ~start_step_test holds the offset), stepped by step_test for 1.5 s, and back to the controller.
-      SimulatorConfig at_rest = plant;
-      at_rest.cycle.rest_time = 1e9;
-      DieCushionSimulator cushion(at_rest);
-      const auto run = [&](double until) {
-        while (cushion.state().t < until - 1e-12) {
-          messages.clear();
-          cushion.step(&messages);
-          for (const auto& m : messages) recorder.write(m, next_block);
-        }
-      };
-      run(0.7);
-      const double offset = cushion.state().u;
-      cushion.setValveCommandOverride(offset);
-      run(1.0);
-      cushion.setValveCommandOverride(offset + step_test);
-      run(2.5);
-      cushion.setValveCommandOverride(std::nullopt);
-      run(3.0);
-    }
+    BagRecorder recorder(o.out, o.epoch, o.recording);
+    double next_block = recordPressCycles(o, plant, recorder);
+    if (o.sweep) next_block = recordSweep(o, plant, next_block, recorder);
+    if (o.step_test != 0.0) recordStepTest(o, plant, next_block, recorder);
     recorder.close();
   } catch (const std::exception& e) {
     std::cerr << "simulate_bag: " << e.what() << "\n";

@@ -84,6 +84,68 @@ void writeChart(const std::string& path, const std::string& title, const std::st
   out << "</svg>\n";
 }
 
+// The press to study: the configuration's, or the one a summary identified (its noise included).
+SimulatorConfig plantToStudy(const IdentificationConfig& base, const std::string& summary_path) {
+  SimulatorConfig plant;
+  plant.geometry = base.geometry;
+  plant.effects = base.effects;
+  plant.custom_effects = base.custom_effects;
+  for (const auto& [name, value] : base.initial_parameters) plant.parameters[name] = value;
+  if (summary_path.empty()) return plant;
+  try {
+    const YAML::Node summary = YAML::LoadFile(summary_path);
+    plant.effects.clear();
+    for (const auto& e : summary["model"]["effects"]) plant.effects.push_back(e.as<std::string>());
+    for (const auto& p : summary["model"]["parameters"]) {
+      plant.parameters[p["name"].as<std::string>()] = p["value"].as<double>();
+    }
+    if (summary["adequacy"] && summary["adequacy"]["noise_rms"]) {
+      plant.sensors.pressure_noise = summary["adequacy"]["noise_rms"].as<double>();
+    }
+  } catch (const std::exception& e) {
+    fail(3, "cannot use the summary '" + summary_path + "': " + e.what());
+  }
+  plant.custom_effects.clear();  // a summary's custom effects are named with their expressions in config
+  return plant;
+}
+
+void writeCsv(const std::string& out, const std::vector<SettingsStudyPoint>& points) {
+  std::ofstream csv(out + "/settings_study.csv");
+  csv << "form,moving_average_width,derivative_width,sample_period,parameter,bias,std,runs,bias_standard_error\n";
+  for (const auto& p : points) {
+    csv << regressionFormName(p.form) << "," << p.moving_average_width << "," << p.derivative_width << ","
+        << p.sample_period << "," << p.parameter << "," << p.bias << "," << p.std << "," << p.runs << ","
+        << p.biasStandardError() << "\n";
+  }
+  csv.close();
+  if (!csv) fail(4, "cannot write " + out + "/settings_study.csv");
+}
+
+// Bias and std against the moving-average width, one line per derivative width, for each form.
+void writeCharts(const std::string& out, const std::vector<SettingsStudyPoint>& points,
+                 double sample_period) {
+  for (RegressionForm form : {RegressionForm::kDerivative, RegressionForm::kIntegral}) {
+    for (const bool bias : {true, false}) {
+      std::vector<Series> series;
+      for (const char* parameter : {"bulk_modulus", "dead_volume"}) {
+        std::map<int, Series> by_width;
+        for (const auto& p : points) {
+          if (p.form != form || p.parameter != parameter || p.sample_period != sample_period) continue;
+          Series& s = by_width[p.derivative_width];
+          s.label = std::string(parameter == std::string("bulk_modulus") ? "K'" : "V0") + ", d = " +
+                    std::to_string(p.derivative_width);
+          s.points.emplace_back(p.moving_average_width, 100.0 * (bias ? p.bias : p.std));
+        }
+        for (auto& [width, s] : by_width) series.push_back(s);
+      }
+      const std::string name = std::string("settings_") + (bias ? "bias_" : "std_") + regressionFormName(form) + ".svg";
+      writeChart(out + "/" + name,
+                 std::string(bias ? "bias" : "std") + " of the estimates, " + regressionFormName(form) + " form",
+                 "moving-average width b [samples]", bias ? "bias [%]" : "std [%]", series);
+    }
+  }
+}
+
 int run(int argc, char** argv) {
   std::string config_path, summary_path, out;
   SettingsStudyOptions options;
@@ -105,70 +167,23 @@ int run(int argc, char** argv) {
     const auto problems = loadAnalysisConfig(config_path, &base, &topics, &keys);
     if (!problems.empty()) fail(2, "invalid configuration in " + config_path + ": " + problems.front());
   }
-  SimulatorConfig plant;
-  plant.geometry = base.geometry;
-  plant.effects = base.effects;
-  plant.custom_effects = base.custom_effects;
-  for (const auto& [name, value] : base.initial_parameters) plant.parameters[name] = value;
-  if (!summary_path.empty()) {
-    try {
-      const YAML::Node summary = YAML::LoadFile(summary_path);
-      plant.effects.clear();
-      for (const auto& e : summary["model"]["effects"]) plant.effects.push_back(e.as<std::string>());
-      for (const auto& p : summary["model"]["parameters"]) {
-        plant.parameters[p["name"].as<std::string>()] = p["value"].as<double>();
-      }
-      if (summary["adequacy"] && summary["adequacy"]["noise_rms"]) {
-        plant.sensors.pressure_noise = summary["adequacy"]["noise_rms"].as<double>();
-      }
-    } catch (const std::exception& e) {
-      fail(3, "cannot use the summary '" + summary_path + "': " + e.what());
-    }
-    plant.custom_effects.clear();  // a summary's custom effects are named with their expressions in config
-  }
+  const SimulatorConfig plant = plantToStudy(base, summary_path);
   base.effects = plant.effects;
   base.custom_effects = plant.custom_effects;
   if (!makeDirectory(out)) fail(4, "cannot create output directory '" + out + "'");
 
-  std::cerr << "study_settings: the press simulated with pressure noise " << plant.sensors.pressure_noise * 1e-5
-            << " bar; " << options.seeds << " seeds x " << options.cycles << " cycles per setting on " << options.jobs
-            << " threads\n";
+  std::cerr << "study_settings: the press simulated with pressure noise "
+            << plant.sensors.pressure_noise * 1e-5 << " bar; " << options.seeds << " seeds x "
+            << options.cycles << " cycles per setting on " << options.jobs << " threads\n";
   int last_percent = -1;
   const auto points = runSettingsStudy(plant, base, options, [&](int done, int total) {
     const int percent = 100 * done / total;
-    if (percent / 10 != last_percent / 10) std::cerr << "study_settings: " << percent << " % (" << done << " of " << total << " runs)\n";
+    if (percent / 10 != last_percent / 10)
+      std::cerr << "study_settings: " << percent << " % (" << done << " of " << total << " runs)\n";
     last_percent = percent;
   });
-
-  std::ofstream csv(out + "/settings_study.csv");
-  csv << "form,moving_average_width,derivative_width,sample_period,parameter,bias,std,runs,bias_standard_error\n";
-  for (const auto& p : points) {
-    csv << regressionFormName(p.form) << "," << p.moving_average_width << "," << p.derivative_width << ","
-        << p.sample_period << "," << p.parameter << "," << p.bias << "," << p.std << "," << p.runs << "," << p.biasStandardError()
-        << "\n";
-  }
-  csv.close();
-  if (!csv) fail(4, "cannot write " + out + "/settings_study.csv");
-  for (RegressionForm form : {RegressionForm::kDerivative, RegressionForm::kIntegral}) {
-    for (const bool bias : {true, false}) {
-      std::vector<Series> series;
-      for (const char* parameter : {"bulk_modulus", "dead_volume"}) {
-        std::map<int, Series> by_width;
-        for (const auto& p : points) {
-          if (p.form != form || p.parameter != parameter || p.sample_period != base.resampler.sample_period) continue;
-          Series& s = by_width[p.derivative_width];
-          s.label = std::string(parameter == std::string("bulk_modulus") ? "K'" : "V0") + ", d = " +
-                    std::to_string(p.derivative_width);
-          s.points.emplace_back(p.moving_average_width, 100.0 * (bias ? p.bias : p.std));
-        }
-        for (auto& [width, s] : by_width) series.push_back(s);
-      }
-      const std::string name = std::string("settings_") + (bias ? "bias_" : "std_") + regressionFormName(form) + ".svg";
-      writeChart(out + "/" + name,
-                 std::string(bias ? "bias" : "std") + " of the estimates, " + regressionFormName(form) + " form",
-                 "moving-average width b [samples]", bias ? "bias [%]" : "std [%]", series);
-    }
-  }
+  writeCsv(out, points);
+  writeCharts(out, points, base.resampler.sample_period);
   const std::string recommendation = recommendSettings(points, base);
   std::ofstream(out + "/recommendation.txt") << recommendation << "\n";
   std::cout << recommendation << "\nresults in " << out << "\n";

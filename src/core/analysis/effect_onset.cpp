@@ -87,75 +87,57 @@ double freeRunErrorFrom(const std::vector<GridSample>& grid, const StrokeSegment
 
 }  // namespace
 
-std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
-                                           const StrokeSegmentation& strokes,
-                                           const IdentificationConfig& config, double significance, int jobs,
-                                           int max_groups) {
-  if (strokes.cycles < kMinimumCycles) return std::nullopt;
-  const std::vector<std::string>& candidates = libraryEffectNames();
-  std::optional<EffectOnset> found;
-  int tests = 0;
-  std::vector<std::pair<EffectOnset, IdentificationConfig>> steps;  // each effect's step, its model
-  for (const std::string& name : candidates) {
-    IdentificationConfig with = config;
-    if (std::find(with.effects.begin(), with.effects.end(), name) == with.effects.end())
-      with.effects.push_back(name);
-    const ParameterInfo info = makeLibraryEffect(name)->parameterFor(config.geometry);
-    const CycleGroupFits groups(grid, strokes, with, max_groups, jobs);
-    if (!groups.valid()) continue;
-    std::vector<double> series;
-    for (int g = 0; g < groups.size(); ++g) {
-      for (const IdentifiedParameter& p : groups.estimate(g).parameters) {
-        if (p.name == info.name) series.push_back(p.value);
-      }
+namespace {
+
+// The step in `name`'s parameter over the cycle groups' fits with the effect in the model, where there is
+// one that is a step (not a drift) and plausible; `tests` counts the splits tried.
+std::optional<EffectOnset> effectStep(const std::string& name, const IdentificationConfig& with,
+                                      const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                      int max_groups, int jobs, int* tests) {
+  const ParameterInfo info = makeLibraryEffect(name)->parameterFor(with.geometry);
+  const CycleGroupFits groups(grid, strokes, with, max_groups, jobs);
+  if (!groups.valid()) return std::nullopt;
+  std::vector<double> series;
+  for (int g = 0; g < groups.size(); ++g) {
+    for (const IdentifiedParameter& p : groups.estimate(g).parameters) {
+      if (p.name == info.name) series.push_back(p.value);
     }
-    if (static_cast<int>(series.size()) != groups.size() || series.size() < 2 * kMinimumSide + 1) continue;
-    if (!std::all_of(series.begin(), series.end(), [](double x) { return std::isfinite(x); })) continue;
-    tests += static_cast<int>(series.size()) - 2 * kMinimumSide + 1;
-    const Step step = largestStep(series);
-    // A step, not a drift: two means fit the series better than a line through it.
-    if (!(step.step_squares < lineSquares(series))) continue;
-    // Within the effect's physical range (three stds of slack) on the side where it acts, the larger: another
-    // effect that starts pulls this one's parameter too, often out of it (an overlap that starts made the
-    // leakage negative). The other side may lie outside: one cycle's fit of an effect that is not there
-    // scatters about 0 (a valve overlap -1.3 % before one started).
-    const auto plausible = [&](double value, double std) {
-      return value >= info.lower_bound - 3.0 * std && value <= info.upper_bound + 3.0 * std;
-    };
-    const bool grows = std::abs(step.after) >= std::abs(step.before);
-    if (grows ? !plausible(step.after, step.after_std) : !plausible(step.before, step.before_std)) continue;
-    EffectOnset onset;
-    onset.effect = name;
-    onset.parameter = info.name;
-    onset.unit = info.unit;
-    onset.cycle = groups.firstCycle(step.split);
-    onset.before = step.before;
-    onset.after = step.after;
-    onset.before_std = step.before_std;
-    onset.after_std = step.after_std;
-    onset.t_statistic = step.t;
-    const boost::math::students_t t_distribution(static_cast<double>(series.size()) - 2.0);
-    onset.p_value = 2.0 * boost::math::cdf(boost::math::complement(t_distribution, std::abs(step.t)));
-    steps.emplace_back(onset, with);
   }
-  // Where several effects step (one that starts pulls the others' parameters too: an overlap that starts
-  // moves a tank pressure, a leak an air volume), one that appears or grows (its parameter moves away from
-  // 0) before one that shrinks (an overlap that started pulled a tank pressure down), and of those the one
-  // whose model, fitted to the cycles from its step on, runs free closest to them.
-  std::pair<bool, double> best = {true, std::numeric_limits<double>::infinity()};  // shrinks, error
-  for (auto& [onset, with] : steps) {
-    onset.p_value = std::min(1.0, onset.p_value * std::max(tests, 1));
-    if (!(onset.p_value < significance)) continue;
-    const bool shrinks = std::abs(onset.after) < std::abs(onset.before);
-    if (shrinks && !best.first) continue;
-    const double error = freeRunErrorFrom(grid, strokes, with, onset.cycle);
-    const std::pair<bool, double> key = {shrinks, error};
-    if (!(key < best)) continue;
-    best = key;
-    found = onset;
-  }
-  if (!found) return std::nullopt;
-  EffectOnset& o = *found;
+  if (static_cast<int>(series.size()) != groups.size() || series.size() < 2 * kMinimumSide + 1)
+    return std::nullopt;
+  if (!std::all_of(series.begin(), series.end(), [](double x) { return std::isfinite(x); }))
+    return std::nullopt;
+  *tests += static_cast<int>(series.size()) - 2 * kMinimumSide + 1;
+  const Step step = largestStep(series);
+  // A step, not a drift: two means fit the series better than a line through it.
+  if (!(step.step_squares < lineSquares(series))) return std::nullopt;
+  // Within the effect's physical range (three stds of slack) on the side where it acts, the larger: another
+  // effect that starts pulls this one's parameter too, often out of it (an overlap that starts made the
+  // leakage negative). The other side may lie outside: one cycle's fit of an effect that is not there
+  // scatters about 0 (a valve overlap -1.3 % before one started).
+  const auto plausible = [&](double value, double std) {
+    return value >= info.lower_bound - 3.0 * std && value <= info.upper_bound + 3.0 * std;
+  };
+  const bool grows = std::abs(step.after) >= std::abs(step.before);
+  if (grows ? !plausible(step.after, step.after_std) : !plausible(step.before, step.before_std))
+    return std::nullopt;
+  EffectOnset onset;
+  onset.effect = name;
+  onset.parameter = info.name;
+  onset.unit = info.unit;
+  onset.cycle = groups.firstCycle(step.split);
+  onset.before = step.before;
+  onset.after = step.after;
+  onset.before_std = step.before_std;
+  onset.after_std = step.after_std;
+  onset.t_statistic = step.t;
+  const boost::math::students_t t_distribution(static_cast<double>(series.size()) - 2.0);
+  onset.p_value = 2.0 * boost::math::cdf(boost::math::complement(t_distribution, std::abs(step.t)));
+  return onset;
+}
+
+// When the onset happened, the press's cycle period, and the onset in words.
+void describeOnset(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes, EffectOnset& o) {
   const std::size_t begin = strokes.range(o.cycle, o.cycle).first;
   o.time = begin < grid.size() ? grid[begin].t - grid.front().t : 0.0;
   std::vector<double> periods;
@@ -175,6 +157,42 @@ std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
           "; each cycle fitted alone, step t = %.1f, p = %.2g over every cycle and effect "
           "tried): the plant changed while it was recorded",
           o.t_statistic, o.p_value);
+}
+
+}  // namespace
+
+std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
+                                           const StrokeSegmentation& strokes,
+                                           const IdentificationConfig& config, double significance, int jobs,
+                                           int max_groups) {
+  if (strokes.cycles < kMinimumCycles) return std::nullopt;
+  int tests = 0;
+  std::vector<std::pair<EffectOnset, IdentificationConfig>> steps;  // each effect's step, its model
+  for (const std::string& name : libraryEffectNames()) {
+    IdentificationConfig with = config;
+    if (std::find(with.effects.begin(), with.effects.end(), name) == with.effects.end())
+      with.effects.push_back(name);
+    if (auto onset = effectStep(name, with, grid, strokes, max_groups, jobs, &tests))
+      steps.emplace_back(*onset, with);
+  }
+  // Where several effects step (one that starts pulls the others' parameters too: an overlap that starts
+  // moves a tank pressure, a leak an air volume), one that appears or grows (its parameter moves away from
+  // 0) before one that shrinks (an overlap that started pulled a tank pressure down), and of those the one
+  // whose model, fitted to the cycles from its step on, runs free closest to them.
+  std::optional<EffectOnset> found;
+  std::pair<bool, double> best = {true, std::numeric_limits<double>::infinity()};  // shrinks, error
+  for (auto& [onset, with] : steps) {
+    onset.p_value = std::min(1.0, onset.p_value * std::max(tests, 1));
+    if (!(onset.p_value < significance)) continue;
+    const bool shrinks = std::abs(onset.after) < std::abs(onset.before);
+    if (shrinks && !best.first) continue;
+    const double error = freeRunErrorFrom(grid, strokes, with, onset.cycle);
+    const std::pair<bool, double> key = {shrinks, error};
+    if (!(key < best)) continue;
+    best = key;
+    found = onset;
+  }
+  if (found) describeOnset(grid, strokes, *found);
   return found;
 }
 

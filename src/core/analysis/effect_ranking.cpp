@@ -259,6 +259,52 @@ bool withinResolution(double error_rms, double noise_rms, const EffectRankingOpt
   return structured <= 2.0 * options.resolution_error;
 }
 
+namespace {
+
+// The ranking's conclusion in words, from its steps and what is left.
+std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cycles,
+                         const EffectRankingOptions& options) {
+  const std::string held_out_path = [&] {
+    std::string text = formatted("%.1f", ranking.base_error_rms * 1e-5);
+    for (const auto& step : ranking.steps) text += " -> " + formatted("%.1f", step.held_out_error_rms * 1e-5);
+    return text + " bar rms on held-out cycles";
+  }();
+  if (!enough) {
+    return "Too few complete press cycles (" + std::to_string(cycles) + ", need " +
+           std::to_string(options.min_held_out_cycles) + ") to judge effects on held-out cycles.";
+  }
+  if (ranking.resolution_limited) {
+    return std::string(ranking.steps.empty()
+                           ? ""
+                           : "Add " + quotedList(ranking.steps) + " (" + held_out_path + "). ") +
+           "The error left (" + formatted("%.2f bar rms", ranking.best_error_rms * 1e-5) +
+           " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
+           ") is within the analysis's own resolution error (" +
+           formatted("%.2f bar", options.resolution_error * 1e-5) +
+           "): resolution-limited, no effect is named" +
+           (options.resolution_remedy.empty() ? std::string(".") : "; " + options.resolution_remedy + ".");
+  }
+  if (!ranking.steps.empty() && !ranking.residual_unexplained) {
+    return ranking.steps.size() == 1
+               ? "Add the effect " + quotedList(ranking.steps) + ": it explains the remaining error (" +
+                     held_out_path + ")."
+               : "Add the effects " + quotedList(ranking.steps) +
+                     " together: they explain the remaining error (" + held_out_path + ").";
+  }
+  if (ranking.residual_unexplained) {
+    return std::string(ranking.steps.empty() ? "The"
+                                             : "Adding " + quotedList(ranking.steps) + " helps (" +
+                                                   held_out_path + "), but the") +
+           " remaining error (" + formatted("%.1f bar rms", ranking.best_error_rms * 1e-5) +
+           " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
+           ") is structured and not explained by the library's effects: describe it with a custom effect "
+           "(--custom-effect NAME=EXPR) where the model fails.";
+  }
+  return "The model explains the measurement to within the noise: no effect is missing.";
+}
+
+}  // namespace
+
 EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                 const IdentificationConfig& config, const EffectRankingOptions& options) {
   EffectRankingResult ranking;
@@ -271,7 +317,6 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
       enough ? heldOutErrors(grid, strokes, config, split, options.jobs != 1) : HeldOutErrors();
   ranking.base_error_rms = current.rms;
   std::vector<Judged> round = judgeLibraryEffects(grid, strokes, config, current, enough, options);
-
   // The staircase: add the most explanatory missing effect, judge the rest against the extended model,
   // until nothing is missing. Effects that come together (a worn seal and air in the oil) are found in
   // one analysis, each step verified on held-out cycles.
@@ -313,43 +358,10 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   ranking.best_error_rms = current.rms;
   ranking.recommended_held_out = current;
   ranking.recommended_effects = model.effects;
-
   ranking.resolution_limited = enough && ranking.best_error_rms > options.staircase_noise_factor * ranking.noise_rms &&
                                withinResolution(ranking.best_error_rms, ranking.noise_rms, options);
   ranking.residual_unexplained = enough && ranking.best_error_rms > floor && !ranking.resolution_limited;
-  const std::string held_out_path = [&] {
-    std::string text = formatted("%.1f", ranking.base_error_rms * 1e-5);
-    for (const auto& step : ranking.steps) text += " -> " + formatted("%.1f", step.held_out_error_rms * 1e-5);
-    return text + " bar rms on held-out cycles";
-  }();
-  if (!enough) {
-    ranking.conclusion = "Too few complete press cycles (" + std::to_string(cycles) + ", need " +
-                         std::to_string(options.min_held_out_cycles) +
-                         ") to judge effects on held-out cycles.";
-  } else if (ranking.resolution_limited) {
-    ranking.conclusion =
-        std::string(ranking.steps.empty() ? "" : "Add " + quotedList(ranking.steps) + " (" + held_out_path + "). ") +
-        "The error left (" + formatted("%.2f bar rms", ranking.best_error_rms * 1e-5) + " on held-out cycles, noise " +
-        formatted("%.2f bar", ranking.noise_rms * 1e-5) + ") is within the analysis's own resolution error (" +
-        formatted("%.2f bar", options.resolution_error * 1e-5) + "): resolution-limited, no effect is named" +
-        (options.resolution_remedy.empty() ? std::string(".") : "; " + options.resolution_remedy + ".");
-  } else if (!ranking.steps.empty() && !ranking.residual_unexplained) {
-    ranking.conclusion = ranking.steps.size() == 1
-                             ? "Add the effect " + quotedList(ranking.steps) + ": it explains the remaining error (" +
-                                   held_out_path + ")."
-                             : "Add the effects " + quotedList(ranking.steps) +
-                                   " together: they explain the remaining error (" + held_out_path + ").";
-  } else if (ranking.residual_unexplained) {
-    ranking.conclusion =
-        std::string(ranking.steps.empty() ? "The" : "Adding " + quotedList(ranking.steps) + " helps (" +
-                                                        held_out_path + "), but the") +
-        " remaining error (" + formatted("%.1f bar rms", ranking.best_error_rms * 1e-5) +
-        " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
-        ") is structured and not explained by the library's effects: describe it with a custom effect "
-        "(--custom-effect NAME=EXPR) where the model fails.";
-  } else {
-    ranking.conclusion = "The model explains the measurement to within the noise: no effect is missing.";
-  }
+  ranking.conclusion = conclusionOf(ranking, enough, cycles, options);
   return ranking;
 }
 

@@ -59,6 +59,46 @@ HydraulicEstimate fitOnStretches(const std::vector<GridSample>& grid, const Iden
 
 namespace {
 
+// The training cycles' fit refined by their free run where that reaches the noise, as the reported model is:
+// a clean fast press whose equation-error fit left twice the noise (its release shorter than the filter
+// windows) was otherwise "missing" a tank pressure, an extra parameter that absorbed the fit's error.
+ParameterVector refinedOnTraining(const std::vector<GridSample>& grid,
+                                  std::pair<std::size_t, std::size_t> range, const HydraulicModel& model,
+                                  const HydraulicEstimate& estimate, const IdentificationConfig& config) {
+  OutputErrorOptions without_stds;
+  without_stds.with_stds = false;
+  without_stds.pressure_noise = config.grid_pressure_noise;
+  // Only the samples the refinement reads (its first max_samples): on an hour's recording a copy of the
+  // whole half per candidate and fold, on both cores, took 130 MB more than the analysis itself.
+  const std::size_t first = std::min(range.first, grid.size());
+  const std::size_t last = std::min({range.second, grid.size(), first + without_stds.max_samples});
+  const std::vector<GridSample> training(grid.begin() + static_cast<std::ptrdiff_t>(first),
+                                         grid.begin() + static_cast<std::ptrdiff_t>(last));
+  const OutputErrorFit refined = refineByOutputError(
+      training, model, estimate.values(), estimate.standardDeviations(), config.min_pressure, without_stds);
+  return refined.improved ? refined.theta : estimate.values();
+}
+
+// Each held-out cycle's free-run sum of squared errors and its samples, the model run free from each
+// cycle's start: a cycle's error is its own, not carried over from the one before.
+void addHeldOutSquares(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                       const HydraulicModel& model, const ParameterVector& theta, double min_pressure,
+                       int test_first, int test_last, std::vector<double>& sum, std::vector<int>& count) {
+  FreeRunPressure free_run(model, min_pressure);
+  for (int c = test_first; c <= test_last; ++c) {
+    const auto [begin, end] = strokes.range(c, c);
+    for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
+      GridSample g = grid[i];
+      if (i == begin) g.discontinuity = true;
+      const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
+      const double p = free_run.step(g, theta, next);
+      if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
+      sum[c] += (g.p - p) * (g.p - p);
+      ++count[c];
+    }
+  }
+}
+
 HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                    const std::array<const IdentificationConfig*, 2>& fold_configs, int split,
                                    bool side_by_side, std::unique_ptr<HydraulicIdentifier> (&fits)[2]) {
@@ -74,40 +114,11 @@ HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const St
     const int fit_first = which == 0 ? 0 : split, fit_last = which == 0 ? split - 1 : strokes.cycles - 1;
     const int test_first = which == 0 ? split : 0, test_last = which == 0 ? strokes.cycles - 1 : split - 1;
     fits[which] = fitIdentifierOnStretches(grid, config, {strokes.range(fit_first, fit_last)});
-    ParameterVector theta = fits[which]->estimate().values();
-    // Refined by the training cycles' free run where that reaches the noise, as the reported model is: a
-    // clean fast press whose equation-error fit left twice the noise (its release shorter than the filter
-    // windows) was otherwise "missing" a tank pressure, an extra parameter that absorbed the fit's error.
-    if (config.refine_held_out_fits) {
-      const auto [fit_begin, fit_end] = strokes.range(fit_first, fit_last);
-      OutputErrorOptions without_stds;
-      without_stds.with_stds = false;
-      without_stds.pressure_noise = config.grid_pressure_noise;
-      // Only the samples the refinement reads (its first max_samples): on an hour's recording a copy of the
-      // whole half per candidate and fold, on both cores, took 130 MB more than the analysis itself.
-      const std::size_t first = std::min(fit_begin, grid.size());
-      const std::size_t last = std::min({fit_end, grid.size(), first + without_stds.max_samples});
-      const std::vector<GridSample> training(grid.begin() + static_cast<std::ptrdiff_t>(first),
-                                             grid.begin() + static_cast<std::ptrdiff_t>(last));
-      const OutputErrorFit refined =
-          refineByOutputError(training, model, theta, fits[which]->estimate().standardDeviations(),
-                              config.min_pressure, without_stds);
-      if (refined.improved) theta = refined.theta;
-    }
-    FreeRunPressure free_run(model, config.min_pressure);
-    for (int c = test_first; c <= test_last; ++c) {
-      const auto [begin, end] = strokes.range(c, c);
-      for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
-        GridSample g = grid[i];
-        // Anchored at each cycle's start: a cycle's error is its own, not carried over from the one before.
-        if (i == begin) g.discontinuity = true;
-        const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
-        const double p = free_run.step(g, theta, next);
-        if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
-        sum[c] += (g.p - p) * (g.p - p);
-        ++count[c];
-      }
-    }
+    const ParameterVector theta = config.refine_held_out_fits
+                                      ? refinedOnTraining(grid, strokes.range(fit_first, fit_last), model,
+                                                          fits[which]->estimate(), config)
+                                      : fits[which]->estimate().values();
+    addHeldOutSquares(grid, strokes, model, theta, config.min_pressure, test_first, test_last, sum, count);
   };
   std::future<void> second = std::async(side_by_side ? std::launch::async : std::launch::deferred, fold, 1);
   fold(0);

@@ -141,22 +141,17 @@ int StrokeSegmentation::cycleOf(std::size_t i) const {
   return static_cast<int>(std::upper_bound(cycle_start.begin(), cycle_start.end(), i) - cycle_start.begin()) - 1;
 }
 
-ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                            const HydraulicModel& model, const ParameterVector& parameters,
-                            double min_pressure) {
-  ModelAssessment a;
-  // The statistics are accumulated sample by sample; only every kModelledStride-th free-run value is kept
-  // (the comparison series that is written), so that an hour's assessment does not hold 1.8 M values.
-  a.modelled.reserve(grid.size() / ModelAssessment::kModelledStride + 1);
-  RegionBins pressure("pressure", {-1e5, 20e5, 50e5, 100e5, 150e5, 200e5, 400e5, 2000e5}, 1e-5, "bar");
-  RegionBins velocity("velocity", {-10, -0.1, -0.02, -0.002, 0.002, 0.02, 0.1, 10}, 1.0, "m/s");
-  RegionBins opening("opening", {-1.0, -0.5, -0.2, -0.05, 0.0, 0.05, 0.2, 0.5, 1.0 + 1e-9}, 1.0, "");
-  FreeRunPressure free_run(model, min_pressure);
-  // The same model restarted from the measurement every kMadeHorizon: its errors are made within the
-  // horizon, in the phase where they show (the restart's pressure is the mean of the five samples around it,
-  // so that one sample's noise does not offset the whole stretch).
+namespace {
+
+// The model restarted from the measurement every kMadeHorizon: its errors are made within the horizon, in
+// the phase where they show (the restart's pressure is the mean of the five samples around it, so that one
+// sample's noise does not offset the whole stretch). Fills `made` per phase; returns the error per sample
+// (NaN where none).
+std::vector<float> errorsMadeWithinHorizon(const std::vector<GridSample>& grid,
+                                           const StrokeSegmentation& strokes, const HydraulicModel& model,
+                                           const ParameterVector& parameters, double min_pressure,
+                                           Accumulator made[kStrokePhaseCount]) {
   FreeRunPressure restarted(model, min_pressure);
-  Accumulator made[kStrokePhaseCount];
   std::vector<float> made_error(grid.size(), std::numeric_limits<float>::quiet_NaN());
   double next_restart = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < grid.size(); ++i) {
@@ -179,6 +174,76 @@ ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSeg
       made_error[i] = static_cast<float>(grid[i].p - q);
     }
   }
+  return made_error;
+}
+
+std::vector<RegionError> phaseRegions(const Accumulator phase[kStrokePhaseCount],
+                                      const Accumulator made[kStrokePhaseCount]) {
+  std::vector<RegionError> regions;
+  for (int k = 0; k < kStrokePhaseCount; ++k) {
+    if (phase[k].n == 0) continue;
+    RegionError r;
+    r.dimension = "phase";
+    r.label = strokePhaseName(static_cast<StrokePhase>(k));
+    r.low = r.high = k;
+    r.samples = phase[k].n;
+    r.rms = std::sqrt(phase[k].sum_squares / phase[k].n);
+    r.mean_residual = phase[k].sum / phase[k].n;
+    if (made[k].n > 0) {
+      r.made_rms = std::sqrt(made[k].sum_squares / made[k].n);
+      r.made_mean_residual = made[k].sum / made[k].n;
+    }
+    regions.push_back(r);
+  }
+  return regions;
+}
+
+// The worst regions with at least 1 % of the samples, worst first, each dimension once, judged by the error
+// the model makes there (the restarted model's), not by what the free run carries into them.
+std::vector<std::string> worstRegions(const ModelAssessment& a) {
+  const auto judged = [](const RegionError& r) { return std::isfinite(r.made_rms) ? r.made_rms : r.rms; };
+  std::vector<const RegionError*> regions;
+  for (const auto* list : {&a.by_phase, &a.by_pressure, &a.by_velocity, &a.by_opening}) {
+    const RegionError* worst = nullptr;
+    for (const auto& r : *list) {
+      if (r.samples >= 0.01 * a.samples && (!worst || judged(r) > judged(*worst))) worst = &r;
+    }
+    if (worst) regions.push_back(worst);
+  }
+  std::sort(regions.begin(), regions.end(), [&](const auto* x, const auto* y) { return judged(*x) > judged(*y); });
+  std::vector<std::string> sentences;
+  for (const auto* r : regions) {
+    const bool made = std::isfinite(r->made_rms);
+    const double rms = made ? r->made_rms : r->rms;
+    const double mean = made ? r->made_mean_residual : r->mean_residual;
+    const std::string within = made ? formatted(" within %.0f ms of the measurement", 1e3 * ModelAssessment::kMadeHorizon) : "";
+    const bool biased = std::abs(mean) > 0.5 * rms;
+    sentences.push_back(biased ? std::string("the model ") + (mean > 0 ? "under" : "over") +
+                                     "-predicts the pressure " + where(*r) + " by " +
+                                     formatted("%.1f bar", std::abs(mean) * 1e-5) + " on average" + within +
+                                     " (" + formatted("%.1f bar rms", rms * 1e-5) + ")"
+                               : "the model misses the pressure " + where(*r) + " by " +
+                                     formatted("%.1f bar rms", rms * 1e-5) + within + ", in both directions");
+  }
+  return sentences;
+}
+
+}  // namespace
+
+ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                            const HydraulicModel& model, const ParameterVector& parameters,
+                            double min_pressure) {
+  ModelAssessment a;
+  // The statistics are accumulated sample by sample; only every kModelledStride-th free-run value is kept
+  // (the comparison series that is written), so that an hour's assessment does not hold 1.8 M values.
+  a.modelled.reserve(grid.size() / ModelAssessment::kModelledStride + 1);
+  RegionBins pressure("pressure", {-1e5, 20e5, 50e5, 100e5, 150e5, 200e5, 400e5, 2000e5}, 1e-5, "bar");
+  RegionBins velocity("velocity", {-10, -0.1, -0.02, -0.002, 0.002, 0.02, 0.1, 10}, 1.0, "m/s");
+  RegionBins opening("opening", {-1.0, -0.5, -0.2, -0.05, 0.0, 0.05, 0.2, 0.5, 1.0 + 1e-9}, 1.0, "");
+  Accumulator made[kStrokePhaseCount];
+  const std::vector<float> made_error =
+      errorsMadeWithinHorizon(grid, strokes, model, parameters, min_pressure, made);
+  FreeRunPressure free_run(model, min_pressure);
   Accumulator all, phase[kStrokePhaseCount];
   for (std::size_t i = 0; i < grid.size(); ++i) {
     const double p = free_run.step(grid[i], parameters, i + 1 < grid.size() ? &grid[i + 1] : nullptr);
@@ -196,51 +261,11 @@ ModelAssessment assessModel(const std::vector<GridSample>& grid, const StrokeSeg
   }
   a.samples = all.n;
   a.simulation_error_rms = all.n > 0 ? std::sqrt(all.sum_squares / all.n) : 0.0;
-  for (int k = 0; k < kStrokePhaseCount; ++k) {
-    if (phase[k].n == 0) continue;
-    RegionError r;
-    r.dimension = "phase";
-    r.label = strokePhaseName(static_cast<StrokePhase>(k));
-    r.low = r.high = k;
-    r.samples = phase[k].n;
-    r.rms = std::sqrt(phase[k].sum_squares / phase[k].n);
-    r.mean_residual = phase[k].sum / phase[k].n;
-    if (made[k].n > 0) {
-      r.made_rms = std::sqrt(made[k].sum_squares / made[k].n);
-      r.made_mean_residual = made[k].sum / made[k].n;
-    }
-    a.by_phase.push_back(r);
-  }
+  a.by_phase = phaseRegions(phase, made);
   a.by_pressure = pressure.regions();
   a.by_velocity = velocity.regions();
   a.by_opening = opening.regions();
-
-  // The worst regions with at least 1 % of the samples, worst first, each dimension once, judged by the error
-  // the model makes there (the restarted model's), not by what the free run carries into them.
-  const auto judged = [](const RegionError& r) { return std::isfinite(r.made_rms) ? r.made_rms : r.rms; };
-  std::vector<const RegionError*> regions;
-  for (const auto* list : {&a.by_phase, &a.by_pressure, &a.by_velocity, &a.by_opening}) {
-    const RegionError* worst = nullptr;
-    for (const auto& r : *list) {
-      if (r.samples >= 0.01 * a.samples && (!worst || judged(r) > judged(*worst))) worst = &r;
-    }
-    if (worst) regions.push_back(worst);
-  }
-  std::sort(regions.begin(), regions.end(), [&](const auto* x, const auto* y) { return judged(*x) > judged(*y); });
-  for (const auto* r : regions) {
-    const bool made = std::isfinite(r->made_rms);
-    const double rms = made ? r->made_rms : r->rms;
-    const double mean = made ? r->made_mean_residual : r->mean_residual;
-    const std::string within = made ? formatted(" within %.0f ms of the measurement", 1e3 * ModelAssessment::kMadeHorizon) : "";
-    const bool biased = std::abs(mean) > 0.5 * rms;
-    std::string sentence = biased ? std::string("the model ") + (mean > 0 ? "under" : "over") +
-                                        "-predicts the pressure " + where(*r) + " by " +
-                                        formatted("%.1f bar", std::abs(mean) * 1e-5) + " on average" + within +
-                                        " (" + formatted("%.1f bar rms", rms * 1e-5) + ")"
-                                  : "the model misses the pressure " + where(*r) + " by " +
-                                        formatted("%.1f bar rms", rms * 1e-5) + within + ", in both directions";
-    a.worst_regions.push_back(sentence);
-  }
+  a.worst_regions = worstRegions(a);
   return a;
 }
 

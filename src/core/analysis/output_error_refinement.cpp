@@ -94,54 +94,43 @@ double rmsOf(const std::vector<double>& r, int valid) {
 
 }  // namespace
 
-OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const HydraulicModel& model,
-                                   const ParameterVector& start, const ParameterVector& start_std,
-                                   double min_pressure, const OutputErrorOptions& refine) {
-  const double position_shift_scale = refine.position_shift_scale;
-  OutputErrorFit fit;
-  fit.theta = start;
-  fit.std = start_std;
-  const std::size_t n = std::min(grid.size(), refine.max_samples);
-  const Eigen::Index k = start.size();
-  if (n < 100 || k == 0 || !start.allFinite()) {
-    fit.message = "too little to refine";
-    return fit;
-  }
-  std::vector<double> r(n);
-  int valid = 0;
-  freeRunResiduals(grid, n, model, start, min_pressure, r.data(), &valid);
-  fit.start_rms = rmsOf(r, valid);
-  fit.rms = fit.start_rms;
-  fit.samples = valid;
-  if (valid < 100) {
-    fit.message = "too few samples the free run covers";
-    return fit;
-  }
-  if (refine.pressure_noise > 0.0) {
-    fit.noise = refine.pressure_noise;
-  } else {
-    WhiteNoiseEstimator noise(4);
-    for (std::size_t i = 1; i + 1 < n; ++i) noise.add(grid[i - 1].p, grid[i].p, grid[i + 1].p);
-    fit.noise = noise.sigma();
-  }
-  // Far above the noise the model lacks something, and no refinement would reach it: not tried.
-  if (!(std::isfinite(fit.noise) && fit.start_rms <= kWorthRefining * fit.noise)) {
-    fit.message = formatted("not refined: the free run's error is %.3g bar, %.1f times the pressure noise: the "
-                            "model lacks something, and the equation-error estimate shows where",
-                            1e-5 * fit.start_rms, fit.start_rms / fit.noise);
-    return fit;
-  }
+namespace {
 
-  // Unknowns in units of each parameter's start (or of its std where the start is zero): all near 1.
-  ParameterVector scale(k);
-  for (Eigen::Index i = 0; i < k; ++i) {
+// The noise the free run is judged by: the one given, or the grid's own.
+double pressureNoise(const std::vector<GridSample>& grid, std::size_t n, const OutputErrorOptions& refine) {
+  if (refine.pressure_noise > 0.0) return refine.pressure_noise;
+  WhiteNoiseEstimator noise(4);
+  for (std::size_t i = 1; i + 1 < n; ++i) noise.add(grid[i - 1].p, grid[i].p, grid[i + 1].p);
+  return noise.sigma();
+}
+
+// Unknowns in units of each parameter's start (or of its std where the start is zero): all near 1.
+ParameterVector unknownScales(const ParameterVector& start, const ParameterVector& start_std) {
+  ParameterVector scale(start.size());
+  for (Eigen::Index i = 0; i < start.size(); ++i) {
     const double s = std::abs(start(i)) > 0.0 ? std::abs(start(i)) : std::abs(start_std(i));
     scale(i) = std::isfinite(s) && s > 0.0 ? s : 1.0;
   }
+  return scale;
+}
+
+struct Solved {
+  ParameterVector theta;
+  double position_shift = 0.0;  // [s]
+  std::size_t iterations = 0;
+};
+
+// The parameters (and the position's shift, where it is an unknown) that minimise the free run's error over
+// the first n samples, within the physical ranges.
+Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, const HydraulicModel& model,
+                            const ParameterVector& start, const ParameterVector& scale, double min_pressure,
+                            const OutputErrorOptions& refine) {
+  const Eigen::Index k = start.size();
   std::vector<double> x(static_cast<std::size_t>(k));
   for (Eigen::Index i = 0; i < k; ++i) x[i] = start(i) / scale(i);
   ceres::NumericDiffOptions differences;
   differences.relative_step_size = 1e-4;
+  const double position_shift_scale = refine.position_shift_scale;
   const bool shifting = position_shift_scale > 0.0;
   // The shift in units of position_shift_scale, plus 1: Ceres's relative difference step needs a non-zero start.
   double shift = 1.0;
@@ -172,44 +161,25 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
+  Solved solved;
+  solved.theta = ParameterVector(k);
+  for (Eigen::Index i = 0; i < k; ++i) solved.theta(i) = x[i] * scale(i);
+  solved.position_shift = shifting ? (shift - 1.0) * position_shift_scale : 0.0;
+  solved.iterations = summary.iterations.size();
+  return solved;
+}
 
-  ParameterVector theta(k);
-  for (Eigen::Index i = 0; i < k; ++i) theta(i) = x[i] * scale(i);
-  const std::vector<GridSample> shifted =
-      shifting ? positionShifted(grid, n, (shift - 1.0) * position_shift_scale) : std::vector<GridSample>();
-  const std::vector<GridSample>& fitted = shifting ? shifted : grid;
-  freeRunResiduals(fitted, n, model, theta, min_pressure, r.data(), &valid);
-  const double rms = rmsOf(r, valid);
-  if (!(rms < fit.start_rms) || !theta.allFinite()) {
-    fit.message = formatted("the free run's error did not fall (%.3g -> %.3g bar): the equation-error estimate kept",
-                            1e-5 * fit.start_rms, 1e-5 * rms);
-    return fit;
-  }
-  // Kept only where it brings the free run to the sensor's noise: then the equation-error fit's resolution
-  // was all that was left. Where a structured error remains, the model lacks something; refining it would
-  // spread that error over the stroke (a missing leakage's hold error moved into the impact) and hide part
-  // of it from the held-out tests, and the equation-error estimate shows where it is made.
-  if (!(std::isfinite(fit.noise) && rms <= refine.kept_up_to_noise * fit.noise)) {
-    fit.message = formatted("free-run error %.3g -> %.3g bar, not kept: %.2f times the pressure noise (%.3g bar) "
-                            "remain, more than %.1f: the model lacks something, and the equation-error estimate "
-                            "shows where",
-                            1e-5 * fit.start_rms, 1e-5 * rms, rms / fit.noise, 1e-5 * fit.noise, refine.kept_up_to_noise);
-    return fit;
-  }
-  fit.improved = true;
-  fit.theta = theta;
-  fit.position_shift = shifting ? (shift - 1.0) * position_shift_scale : 0.0;
-  fit.rms = rms;
-  fit.samples = valid;
-  fit.message = formatted("free-run error %.3g -> %.3g bar over %.0f samples (%.0f Ceres iterations)",
-                          1e-5 * fit.start_rms, 1e-5 * rms, valid, summary.iterations.size());
-  if (!refine.with_stds) return fit;
-
-  // The stds: the sandwich (J'J)^-1 S (J'J)^-1 with S from the scores g_t = J_t r_t summed over blocks of
-  // the recording treated as independent (cluster-robust): a free run's residuals stay correlated over a
-  // whole press cycle (a shut valve carries an error through the hold), and Bartlett weights over 300 ms
-  // left the stds a third of the errors on fast presses. J by central differences at the solution.
-  // Where the position's shift was an unknown, the stds are those with the shift held at its optimum.
+// The stds: the sandwich (J'J)^-1 S (J'J)^-1 with S from the scores g_t = J_t r_t summed over blocks of
+// the recording treated as independent (cluster-robust): a free run's residuals stay correlated over a
+// whole press cycle (a shut valve carries an error through the hold), and Bartlett weights over 300 ms
+// left the stds a third of the errors on fast presses. J by central differences at the solution.
+// Where the position's shift was an unknown, the stds are those with the shift held at its optimum.
+void setClusterRobustStds(const std::vector<GridSample>& fitted, std::size_t n, const HydraulicModel& model,
+                          const ParameterVector& scale, const std::vector<double>& r, double min_pressure,
+                          const OutputErrorOptions& refine, const ParameterVector& start_std,
+                          OutputErrorFit& fit) {
+  const ParameterVector& theta = fit.theta;
+  const Eigen::Index k = theta.size();
   Eigen::MatrixXd jacobian(n, k);
   parallelFor(static_cast<std::size_t>(k), refine.jobs, [&](std::size_t column) {
     const auto i = static_cast<Eigen::Index>(column);
@@ -240,6 +210,79 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
     const double variance = covariance(i, i);
     fit.std(i) = variance > 0.0 && std::isfinite(variance) ? std::sqrt(variance) : start_std(i);
   }
+}
+
+// Why the refined parameters are not kept (their free-run error `rms`); "" where they are. Kept only where
+// they bring the free run to the sensor's noise: then the equation-error fit's resolution was all that was
+// left. Where a structured error remains, the model lacks something; refining it would spread that error
+// over the stroke (a missing leakage's hold error moved into the impact) and hide part of it from the
+// held-out tests, and the equation-error estimate shows where it is made.
+std::string whyNotKept(const OutputErrorFit& fit, double rms, bool finite, const OutputErrorOptions& refine) {
+  if (!(rms < fit.start_rms) || !finite) {
+    return formatted("the free run's error did not fall (%.3g -> %.3g bar): the equation-error estimate kept",
+                     1e-5 * fit.start_rms, 1e-5 * rms);
+  }
+  if (!(std::isfinite(fit.noise) && rms <= refine.kept_up_to_noise * fit.noise)) {
+    return formatted(
+        "free-run error %.3g -> %.3g bar, not kept: %.2f times the pressure noise (%.3g bar) "
+        "remain, more than %.1f: the model lacks something, and the equation-error estimate "
+        "shows where",
+        1e-5 * fit.start_rms, 1e-5 * rms, rms / fit.noise, 1e-5 * fit.noise, refine.kept_up_to_noise);
+  }
+  return "";
+}
+
+}  // namespace
+
+OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const HydraulicModel& model,
+                                   const ParameterVector& start, const ParameterVector& start_std,
+                                   double min_pressure, const OutputErrorOptions& refine) {
+  OutputErrorFit fit;
+  fit.theta = start;
+  fit.std = start_std;
+  const std::size_t n = std::min(grid.size(), refine.max_samples);
+  if (n < 100 || start.size() == 0 || !start.allFinite()) {
+    fit.message = "too little to refine";
+    return fit;
+  }
+  std::vector<double> r(n);
+  int valid = 0;
+  freeRunResiduals(grid, n, model, start, min_pressure, r.data(), &valid);
+  fit.start_rms = rmsOf(r, valid);
+  fit.rms = fit.start_rms;
+  fit.samples = valid;
+  if (valid < 100) {
+    fit.message = "too few samples the free run covers";
+    return fit;
+  }
+  fit.noise = pressureNoise(grid, n, refine);
+  // Far above the noise the model lacks something, and no refinement would reach it: not tried.
+  if (!(std::isfinite(fit.noise) && fit.start_rms <= kWorthRefining * fit.noise)) {
+    fit.message = formatted(
+        "not refined: the free run's error is %.3g bar, %.1f times the pressure noise: the "
+        "model lacks something, and the equation-error estimate shows where",
+        1e-5 * fit.start_rms, fit.start_rms / fit.noise);
+    return fit;
+  }
+  const ParameterVector scale = unknownScales(start, start_std);
+  const Solved solved = minimiseFreeRunError(grid, n, model, start, scale, min_pressure, refine);
+  const bool shifting = refine.position_shift_scale > 0.0;
+  const std::vector<GridSample> shifted =
+      shifting ? positionShifted(grid, n, solved.position_shift) : std::vector<GridSample>();
+  const std::vector<GridSample>& fitted = shifting ? shifted : grid;
+  freeRunResiduals(fitted, n, model, solved.theta, min_pressure, r.data(), &valid);
+  const double rms = rmsOf(r, valid);
+  fit.message = whyNotKept(fit, rms, solved.theta.allFinite(), refine);
+  if (!fit.message.empty()) return fit;
+  fit.improved = true;
+  fit.theta = solved.theta;
+  fit.position_shift = solved.position_shift;
+  fit.rms = rms;
+  fit.samples = valid;
+  fit.message = formatted("free-run error %.3g -> %.3g bar over %.0f samples (%.0f Ceres iterations)",
+                          1e-5 * fit.start_rms, 1e-5 * rms, valid, solved.iterations);
+  if (refine.with_stds)
+    setClusterRobustStds(fitted, n, model, scale, r, min_pressure, refine, start_std, fit);
   return fit;
 }
 

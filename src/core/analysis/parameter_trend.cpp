@@ -96,26 +96,18 @@ void SelfStartingCusum::restartFrom(std::size_t first) {
   high_start_ = low_start_ = points_.size();
 }
 
-std::optional<ParameterChange> SelfStartingCusum::add(const TrendPoint& point) {
-  if (!std::isfinite(point.value) || !std::isfinite(point.stamp)) return std::nullopt;
+double SelfStartingCusum::normalScore(const TrendPoint& point, std::size_t m) const {
   // The in-control recordings before this one: their mean and scatter (Welford), and their reported
   // variances' mean.
-  const std::size_t m = points_.size() - baseline_begin_;
   double mean = 0.0, squares = 0.0, reported = 0.0;
-  for (std::size_t i = baseline_begin_, j = 1; i < points_.size(); ++i, ++j) {
+  for (std::size_t i = baseline_begin_, j = 1; i < baseline_begin_ + m; ++i, ++j) {
     const double delta = points_[i].value - mean;
     mean += delta / static_cast<double>(j);
     squares += delta * (points_[i].value - mean);
     reported += points_[i].std * points_[i].std;
   }
-  points_.push_back(point);
-  const std::size_t index = points_.size() - 1;
-  if (m < static_cast<std::size_t>(std::max(options_.warm_up, 3))) {
-    high_start_ = low_start_ = index + 1;
-    return std::nullopt;
-  }
   const double scatter2 = squares / static_cast<double>(m - 1);
-  if (!(scatter2 > 0.0)) return std::nullopt;  // identical values: nothing to standardise against
+  if (!(scatter2 > 0.0)) return std::numeric_limits<double>::quiet_NaN();  // nothing to standardise against
   // Recordings differ in length and so in their reported std: the scatter is the day-to-day variance tau^2
   // (what the stds miss) plus their mean variance, and this recording's own is tau^2 plus its std^2. With
   // the baseline's scatter alone, stds varying 3-fold gave one false alarm per 321 recordings instead of the
@@ -129,15 +121,10 @@ std::optional<ParameterChange> SelfStartingCusum::add(const TrendPoint& point) {
   const double upper = boost::math::cdf(boost::math::complement(student, std::abs(t)));
   const boost::math::normal normal;
   const double z = upper > 0.0 ? boost::math::quantile(boost::math::complement(normal, upper)) : 38.0;
-  const double u = t >= 0.0 ? z : -z;
-  if (high_ == 0.0) high_start_ = index;
-  if (low_ == 0.0) low_start_ = index;
-  high_ = std::max(0.0, high_ + u - reference_);
-  low_ = std::max(0.0, low_ - u - reference_);
-  if (high_ == 0.0) high_start_ = index + 1;
-  if (low_ == 0.0) low_start_ = index + 1;
-  const bool rise = high_ > threshold_, fall = low_ > threshold_;
-  if (!rise && !fall) return std::nullopt;
+  return t >= 0.0 ? z : -z;
+}
+
+ParameterChange SelfStartingCusum::describeAlarm(std::size_t index, bool rise) const {
   ParameterChange change;
   // Dated by maximum likelihood among the recordings since the CUSUM last stood at 0: the split whose later
   // part's mean lies farthest from the baseline's, weighted by its length (the last zero alone dated a step
@@ -154,13 +141,36 @@ std::optional<ParameterChange> SelfStartingCusum::add(const TrendPoint& point) {
     }
   }
   change.alarm_index = index;
-  change.alarm_stamp = point.stamp;
+  change.alarm_stamp = points_[index].stamp;
   change.start_stamp = points_[change.start_index].stamp;
   change.before = meanOf(points_, baseline_begin_, change.start_index);
   change.after = meanOf(points_, change.start_index, index + 1);
   change.statistic = rise ? high_ : low_;
   change.threshold = threshold_;
   change.shape = rampFitsBetter(points_, change.start_index, index + 1) ? "drift" : "step";
+  return change;
+}
+
+std::optional<ParameterChange> SelfStartingCusum::add(const TrendPoint& point) {
+  if (!std::isfinite(point.value) || !std::isfinite(point.stamp)) return std::nullopt;
+  const std::size_t m = points_.size() - baseline_begin_;
+  points_.push_back(point);
+  const std::size_t index = points_.size() - 1;
+  if (m < static_cast<std::size_t>(std::max(options_.warm_up, 3))) {
+    high_start_ = low_start_ = index + 1;
+    return std::nullopt;
+  }
+  const double u = normalScore(point, m);
+  if (std::isnan(u)) return std::nullopt;
+  if (high_ == 0.0) high_start_ = index;
+  if (low_ == 0.0) low_start_ = index;
+  high_ = std::max(0.0, high_ + u - reference_);
+  low_ = std::max(0.0, low_ - u - reference_);
+  if (high_ == 0.0) high_start_ = index + 1;
+  if (low_ == 0.0) low_start_ = index + 1;
+  const bool rise = high_ > threshold_, fall = low_ > threshold_;
+  if (!rise && !fall) return std::nullopt;
+  const ParameterChange change = describeAlarm(index, rise);
   // The new regime's baseline starts with the next recording: the ones that raised the alarm are a biased
   // sample of it (restarted from the change's start, a false alarm was followed by more: one per 404
   // recordings instead of the designed 500).

@@ -108,19 +108,29 @@ std::vector<SettingsStudyPoint> runSettingsStudy(const SimulatorConfig& plant, c
   return points;
 }
 
-std::string recommendSettings(const std::vector<SettingsStudyPoint>& points, const IdentificationConfig& base) {
-  // Per form and widths (at the configured sampling time): the worst parameter's |bias| + 2 std, and the
-  // worst |bias| with its parameter.
-  struct Worst {
-    double error = 0.0, bias = 0.0, bias_standard_error = 0.0;
-    std::string parameter;
-  };
-  std::map<std::pair<int, int>, Worst> integral, derivative;
+namespace {
+
+// Per form and widths (at the configured sampling time): the worst parameter's |bias| + 2 std, and the
+// worst |bias| with its parameter.
+struct Worst {
+  double error = 0.0, bias = 0.0, bias_standard_error = 0.0;
+  std::string parameter;
+};
+using ByWidths = std::map<std::pair<int, int>, Worst>;
+
+struct StudyTable {
+  ByWidths integral, derivative;
   std::map<double, double> period_error;  // integral form at the configured widths
+};
+
+StudyTable tabulate(const std::vector<SettingsStudyPoint>& points, const IdentificationConfig& base) {
+  StudyTable table;
   for (const auto& p : points) {
     const double error = std::abs(p.bias) + 2.0 * p.std;
     if (p.sample_period == base.resampler.sample_period) {
-      Worst& w = (p.form == RegressionForm::kIntegral ? integral : derivative)[{p.moving_average_width, p.derivative_width}];
+      Worst& w = (p.form == RegressionForm::kIntegral
+                      ? table.integral
+                      : table.derivative)[{p.moving_average_width, p.derivative_width}];
       w.error = std::max(w.error, error);
       if (std::abs(p.bias) >= std::abs(w.bias)) {
         w.bias = p.bias;
@@ -130,37 +140,41 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points, con
     }
     if (p.form == RegressionForm::kIntegral && p.moving_average_width == base.moving_average_width &&
         p.derivative_width == base.derivative_width) {
-      double& e = period_error[p.sample_period];
+      double& e = table.period_error[p.sample_period];
       e = std::max(e, error);
     }
   }
-  const auto best = [](const std::map<std::pair<int, int>, Worst>& by_widths) {
-    auto at = by_widths.begin();
-    for (auto it = by_widths.begin(); it != by_widths.end(); ++it) {
-      if (it->second.error < at->second.error) at = it;
-    }
-    return at;
-  };
-  const auto most_biased = [](const std::map<std::pair<int, int>, Worst>& by_widths) {
-    auto at = by_widths.begin();
-    for (auto it = by_widths.begin(); it != by_widths.end(); ++it) {
-      if (std::abs(it->second.bias) > std::abs(at->second.bias)) at = it;
-    }
-    return at;
-  };
+  return table;
+}
+
+// The first widths whose `key` is least.
+template <typename Key>
+ByWidths::const_iterator leastBy(const ByWidths& by_widths, Key key) {
+  auto at = by_widths.begin();
+  for (auto it = by_widths.begin(); it != by_widths.end(); ++it) {
+    if (key(it->second) < key(at->second)) at = it;
+  }
+  return at;
+}
+
+}  // namespace
+
+std::string recommendSettings(const std::vector<SettingsStudyPoint>& points,
+                              const IdentificationConfig& base) {
+  const StudyTable table = tabulate(points, base);
+  const ByWidths& integral = table.integral;
+  const ByWidths& derivative = table.derivative;
   if (integral.empty() || derivative.empty()) return "The study has no points at the configured sampling time.";
   const auto configured = integral.find({base.moving_average_width, base.derivative_width});
-  const auto integral_best = best(integral);
+  const auto integral_best = leastBy(integral, [](const Worst& w) { return w.error; });
   // The integral form's bias may change sign over the widths (on the default cushion it is slightly positive
   // without a moving average and slightly negative at the widest windows): its range, each end with its widths.
-  auto integral_low = integral.begin(), integral_high = integral.begin();
-  for (auto it = integral.begin(); it != integral.end(); ++it) {
-    if (it->second.bias < integral_low->second.bias) integral_low = it;
-    if (it->second.bias > integral_high->second.bias) integral_high = it;
-  }
-  const auto derivative_best = best(derivative), derivative_worst = most_biased(derivative);
+  const auto integral_low = leastBy(integral, [](const Worst& w) { return w.bias; });
+  const auto integral_high = leastBy(integral, [](const Worst& w) { return -w.bias; });
+  const auto derivative_best = leastBy(derivative, [](const Worst& w) { return w.error; });
+  const auto derivative_worst = leastBy(derivative, [](const Worst& w) { return -std::abs(w.bias); });
   double best_period = base.resampler.sample_period, best_period_error = 1e300;
-  for (const auto& [period, error] : period_error) {
+  for (const auto& [period, error] : table.period_error) {
     if (error < best_period_error) {
       best_period_error = error;
       best_period = period;

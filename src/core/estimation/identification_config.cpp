@@ -168,8 +168,12 @@ double numericConfigValue(const IdentificationConfig& config, const std::string&
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-std::vector<std::string> IdentificationConfig::validate() const {
-  Checker c;
+namespace {
+
+// The press's geometry and the grid; returns the sample period the other keys are judged against.
+double checkGeometryAndGrid(const IdentificationConfig& config, Checker& c) {
+  const auto& geometry = config.geometry;
+  const auto& resampler = config.resampler;
   c.range("piston_area", geometry.piston_area, 0.0, 10.0, "m^2", true);
   c.range("stroke_length", geometry.stroke_length, 0.0, 5.0, "m", true);
   c.range("supply_pressure", geometry.supply_pressure, 0.0, 1e9, "Pa", true);
@@ -182,43 +186,58 @@ std::vector<std::string> IdentificationConfig::validate() const {
   c.range("max_gap", resampler.max_gap, period, 10.0, "s", true);
   c.range("stale_timeout", resampler.stale_timeout, resampler.max_gap, 60.0, "s");
   c.range("restart_jump", resampler.restart_jump, resampler.stale_timeout, 3600.0, "s", true);
-  c.oddWidth("moving_average_width", moving_average_width, 1, 1001);
-  c.oddWidth("derivative_width", derivative_width, 3, 1001);
-  c.range("identification_period", identification_period, period, 10.0, "s");
-  if (period_ok && std::isfinite(identification_period) &&
-      std::abs(identification_period / resampler.sample_period - decimation()) > 1e-6) {
-    c.errors.push_back("identification_period = " + std::to_string(identification_period) +
+  c.oddWidth("moving_average_width", config.moving_average_width, 1, 1001);
+  c.oddWidth("derivative_width", config.derivative_width, 3, 1001);
+  c.range("identification_period", config.identification_period, period, 10.0, "s");
+  if (period_ok && std::isfinite(config.identification_period) &&
+      std::abs(config.identification_period / resampler.sample_period - config.decimation()) > 1e-6) {
+    c.errors.push_back("identification_period = " + std::to_string(config.identification_period) +
                        " is invalid: must be a whole multiple of sample_period = " +
                        std::to_string(resampler.sample_period) + " s");
   }
-  c.range("forgetting_factor", forgetting_factor, 0.5, 1.0, "", false);
-  c.range("initial_covariance", initial_covariance, 0.0, 1e12, "", true);
-  c.range("min_pressure", min_pressure, -kAtmosphericPressure, 1e9, "Pa");
-  c.range("max_spool_opening", max_spool_opening, 0.0, 1.0, "", true);
-  c.range("min_velocity", min_velocity, 0.0, 10.0, "m/s");
-  c.range("min_pressure_rate", min_pressure_rate, 0.0, 1e12, "Pa/s");
-  c.range("valve_natural_frequency", valve.natural_frequency, 0.0, 5000.0, "Hz", true);
-  c.range("valve_damping", valve.damping, 0.0, 10.0, "", true);
-  c.range("valve_gain", valve.gain, -100.0, 100.0, "1/V");
-  c.range("valve_dead_time", valve.dead_time, 0.0, 1.0, "s");
+  return period;
+}
+
+void checkEstimatorAndValve(const IdentificationConfig& config, Checker& c, double period) {
+  c.range("forgetting_factor", config.forgetting_factor, 0.5, 1.0, "", false);
+  c.range("initial_covariance", config.initial_covariance, 0.0, 1e12, "", true);
+  c.range("min_pressure", config.min_pressure, -kAtmosphericPressure, 1e9, "Pa");
+  c.range("max_spool_opening", config.max_spool_opening, 0.0, 1.0, "", true);
+  c.range("min_velocity", config.min_velocity, 0.0, 10.0, "m/s");
+  c.range("min_pressure_rate", config.min_pressure_rate, 0.0, 1e12, "Pa/s");
+  c.range("valve_natural_frequency", config.valve.natural_frequency, 0.0, 5000.0, "Hz", true);
+  c.range("valve_damping", config.valve.damping, 0.0, 10.0, "", true);
+  c.range("valve_gain", config.valve.gain, -100.0, 100.0, "1/V");
+  c.range("valve_dead_time", config.valve.dead_time, 0.0, 1.0, "s");
   // NaN means "not set" for these: a default from the data.
-  if (!std::isnan(valve_command_hold)) c.range("valve_command_hold", valve_command_hold, 0.0, 1.0, "s");
+  if (!std::isnan(config.valve_command_hold))
+    c.range("valve_command_hold", config.valve_command_hold, 0.0, 1.0, "s");
   for (int s = 0; s < kInputStreamCount; ++s) {
-    if (std::isnan(topic_delays[s])) continue;
+    if (std::isnan(config.topic_delays[s])) continue;
     const std::string key = std::string("topic_delays/") + inputStreamName(static_cast<InputStream>(s));
-    c.range(key.c_str(), topic_delays[s], -1.0, 1.0, "s");
+    c.range(key.c_str(), config.topic_delays[s], -1.0, 1.0, "s");
   }
-  c.range("topic_delay_search", topic_delay_search, 0.0, 0.5, "s");
-  c.range("velocity_window", velocity_window, 2.0 * period, 1.0, "s");
-  c.range("min_plausible_pressure", min_plausible_pressure, -1e7, 1e9, "Pa");
-  if (!std::isnan(max_plausible_pressure))
-    c.range("max_plausible_pressure", max_plausible_pressure, std::max(min_plausible_pressure, 0.0), 1e10, "Pa", true);
-  c.range("plausible_stroke_margin", plausible_stroke_margin, 0.0, 10.0, "");
-  c.range("max_plausible_velocity", max_plausible_velocity, 0.0, 1000.0, "m/s", true);
-  c.range("max_plausible_voltage", max_plausible_voltage, 0.0, 1e4, "V", true);
+  c.range("topic_delay_search", config.topic_delay_search, 0.0, 0.5, "s");
+  c.range("velocity_window", config.velocity_window, 2.0 * period, 1.0, "s");
+}
+
+void checkPlausibleRanges(const IdentificationConfig& config, Checker& c) {
+  c.range("min_plausible_pressure", config.min_plausible_pressure, -1e7, 1e9, "Pa");
+  if (!std::isnan(config.max_plausible_pressure)) {
+    c.range("max_plausible_pressure", config.max_plausible_pressure,
+            std::max(config.min_plausible_pressure, 0.0), 1e10, "Pa", true);
+  }
+  c.range("plausible_stroke_margin", config.plausible_stroke_margin, 0.0, 10.0, "");
+  c.range("max_plausible_velocity", config.max_plausible_velocity, 0.0, 1000.0, "m/s", true);
+  c.range("max_plausible_voltage", config.max_plausible_voltage, 0.0, 1e4, "V", true);
+}
+
+// Each initial value names a parameter of the model and lies in its range.
+void checkInitialParameters(const IdentificationConfig& config, Checker& c) {
   try {
-    const HydraulicModel model = HydraulicModel::fromNames(geometry, effects, custom_effects);
-    for (const auto& [name, value] : initial_parameters) {
+    const HydraulicModel model =
+        HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+    for (const auto& [name, value] : config.initial_parameters) {
       bool known = false;
       for (const auto& info : model.parameterInfos()) {
         if (info.name != name) continue;
@@ -237,6 +256,16 @@ std::vector<std::string> IdentificationConfig::validate() const {
   } catch (const std::exception& e) {
     c.errors.push_back(e.what());
   }
+}
+
+}  // namespace
+
+std::vector<std::string> IdentificationConfig::validate() const {
+  Checker c;
+  const double period = checkGeometryAndGrid(*this, c);
+  checkEstimatorAndValve(*this, c, period);
+  checkPlausibleRanges(*this, c);
+  checkInitialParameters(*this, c);
   return c.errors;
 }
 

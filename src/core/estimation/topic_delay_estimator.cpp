@@ -422,25 +422,28 @@ bool TopicDelayEstimate::significant(double sample_period) const {
   return false;
 }
 
-TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
-                                       const IdentificationConfig& config) {
-  TopicDelayEstimate e;
-  const double dt = config.resampler.sample_period;
-  const std::size_t window = std::max<std::size_t>(2, std::lround(kWindow / dt));
-  // Only the stretch that holds enough usable samples is prepared: an hour's grid is 1.8 M samples, the
-  // estimate needs a few minutes of strokes.
+namespace {
+
+// The stretch that holds enough usable samples: an hour's grid is 1.8 M samples, the estimate needs a few
+// minutes of strokes. Returns its end.
+std::size_t usableStretch(const std::vector<GridSample>& grid, const IdentificationConfig& config) {
   std::size_t end = 0, usable = 0;
   while (end < grid.size() && usable < 3 * kMaxSamples) {
     const GridSample& g = grid[end++];
     if (g.complete && g.p >= config.min_pressure && std::abs(g.y) <= config.max_spool_opening) ++usable;
   }
-  const Signals s = prepare(grid, end, config);
-  // Windows (one every `window` samples) where the cushion moves or the pressure changes; the shifts reach
-  // up to topic_delay_search beyond each window's ends.
-  const std::size_t reach = static_cast<std::size_t>(std::ceil(config.topic_delay_search / dt)) + 2;
+  return end;
+}
+
+// Windows (one every `window` samples) where the cushion moves or the pressure changes; the shifts reach
+// up to `reach` samples beyond each window's ends. Counts their samples in `excited_samples`.
+std::vector<std::size_t> excitedWindows(const Signals& s, std::size_t end, std::size_t window,
+                                        std::size_t reach, const IdentificationConfig& config,
+                                        std::size_t* excited_samples) {
+  const double dt = config.resampler.sample_period;
   std::vector<std::size_t> starts;
-  std::size_t excited_samples = 0;
-  for (std::size_t k = reach; k + window + reach < end && excited_samples < kMaxSamples; k += window) {
+  *excited_samples = 0;
+  for (std::size_t k = reach; k + window + reach < end && *excited_samples < kMaxSamples; k += window) {
     const double p0 = s.p[k], p1 = s.p[k + window], x0 = s.x[k], x1 = s.x[k + window];
     if (!std::isfinite(p0 + p1 + x0 + x1)) continue;
     // Every shift the search may try must find the window's channels: the cost compares the same rows.
@@ -455,40 +458,20 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
         std::abs(p1 - p0) < config.min_pressure_rate * seconds)
       continue;
     starts.push_back(k);
-    excited_samples += window;
+    *excited_samples += window;
   }
-  e.samples = static_cast<int>(excited_samples);
-  if (excited_samples < 2000) {
-    e.message = "too few samples with the cushion moving or the pressure changing (" +
-                std::to_string(excited_samples) + ") to estimate the topics' clock offsets";
-    return e;
-  }
-  // A coarse map over both offsets finds the basin (the offsets interact: a late
-  // pressure looks like early position and valve), then coordinate descent along position, valve and both
-  // together refines it on all windows.
-  std::vector<std::size_t> coarse_starts;
-  // At most kCoarseWindows windows, spread over the stretch, integrated in steps of the map's own step.
-  const std::size_t coarse_stride = std::max<std::size_t>(1, starts.size() / kCoarseWindows);
-  for (std::size_t i = 0; i < starts.size(); i += coarse_stride) coarse_starts.push_back(starts[i]);
-  WhiteNoiseEstimator pressure_noise(4);
-  for (std::size_t i = 2; i < end; ++i) {
-    if (std::isfinite(s.p[i - 2] + s.p[i - 1] + s.p[i])) pressure_noise.add(s.p[i - 2], s.p[i - 1], s.p[i]);
-  }
-  const double step = std::max(1.0, std::round(kCoarseStep / dt));
-  const Signals smoothed = smoothedSignals(s, static_cast<std::size_t>(step) | 1u);
-  const BalanceCost coarse(smoothed, config, dt, std::move(coarse_starts),
-                           pressure_noise.sigma() / std::sqrt(step), kWindow, static_cast<std::size_t>(step));
-  // The same windows' first halves, for the method's share of the uncertainty below.
-  const BalanceCost half_windows(s, config, dt, starts, pressure_noise.sigma(), 0.5 * kWindow);
-  const BalanceCost cost(s, config, dt, std::move(starts), pressure_noise.sigma());
-  const double search_range = config.topic_delay_search / dt;
-  // The coarse map's lowest points that are not neighbours of a lower one: each is refined, the lowest
-  // refined one wins (on a fast press the true basin is narrower than the map's step, and a neighbouring
-  // basin could look lower on the map: a 20 ms offset was found at 5.5 ms).
-  struct Point {
-    double cost, position, valve;
-  };
-  std::vector<Point> map;
+  return starts;
+}
+
+struct MapPoint {
+  double cost, position, valve;
+};
+
+// The coarse map's lowest points that are not neighbours of a lower one (at most three): each is refined,
+// the lowest refined one wins (on a fast press the true basin is narrower than the map's step, and a
+// neighbouring basin could look lower on the map: a 20 ms offset was found at 5.5 ms).
+std::vector<MapPoint> coarseBasins(const BalanceCost& coarse, double search_range, double step) {
+  std::vector<MapPoint> map;
   std::vector<double> shifts;
   for (double shift = -std::floor(search_range / step) * step; shift <= search_range; shift += step)
     shifts.push_back(shift);
@@ -497,50 +480,57 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
     for (std::size_t j = 0; j < shifts.size(); ++j)
       map.push_back({map_costs[i * shifts.size() + j], shifts[i], shifts[j]});
   }
-  std::sort(map.begin(), map.end(), [](const Point& a, const Point& b) { return a.cost < b.cost; });
-  std::vector<Point> basins;
-  for (const Point& candidate : map) {
+  std::sort(map.begin(), map.end(), [](const MapPoint& a, const MapPoint& b) { return a.cost < b.cost; });
+  std::vector<MapPoint> basins;
+  for (const MapPoint& candidate : map) {
     if (!std::isfinite(candidate.cost) || basins.size() >= 3) break;
     bool near = false;
-    for (const Point& b : basins) {
+    for (const MapPoint& b : basins) {
       near |= std::abs(b.position - candidate.position) <= 1.5 * step &&
               std::abs(b.valve - candidate.valve) <= 1.5 * step;
     }
     if (!near) basins.push_back(candidate);
   }
   if (basins.empty()) basins.push_back({coarse.cost(0.0, 0.0), 0.0, 0.0});
-  // Each basin's first round; the lowest is polished.
-  struct Refined {
-    double position, valve, cost;
-    LineSearch x_search, v_search;
-  };
-  const auto refine = [&](Refined r, double range) {
-    const LineSearch both =
-        searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve + shift); }, range);
-    r.position += both.best;
-    r.valve += both.best;
-    r.x_search = searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve); }, range);
-    r.position += r.x_search.best;
-    r.v_search = searchShift([&](double shift) { return cost.cost(r.position, r.valve + shift); }, range);
-    r.valve += r.v_search.best;
-    r.cost = cost.cost(r.position, r.valve);
-    return r;
-  };
-  Refined best{0.0, 0.0, std::numeric_limits<double>::infinity(), {}, {}};
-  for (const Point& basin : basins) {
-    const Refined r = refine({basin.position, basin.valve, 0.0, {}, {}}, step + 1.0);
+  return basins;
+}
+
+struct Refined {
+  double position, valve, cost;
+};
+
+// One round of coordinate descent from `r` within `range` samples: both offsets together, then position,
+// then valve.
+Refined refineRound(const BalanceCost& cost, Refined r, double range) {
+  const LineSearch both =
+      searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve + shift); }, range);
+  r.position += both.best;
+  r.valve += both.best;
+  r.position += searchShift([&](double shift) { return cost.cost(r.position + shift, r.valve); }, range).best;
+  r.valve += searchShift([&](double shift) { return cost.cost(r.position, r.valve + shift); }, range).best;
+  r.cost = cost.cost(r.position, r.valve);
+  return r;
+}
+
+// Each basin's first round; the lowest is polished.
+Refined refineBasins(const BalanceCost& cost, const std::vector<MapPoint>& basins, double step) {
+  Refined best{0.0, 0.0, std::numeric_limits<double>::infinity()};
+  for (const MapPoint& basin : basins) {
+    const Refined r = refineRound(cost, {basin.position, basin.valve, 0.0}, step + 1.0);
     if (r.cost < best.cost) best = r;
   }
-  for (int round = 0; round < 2; ++round) best = refine(best, 1.0);
-  double position = best.position, valve = best.valve;
-  constexpr int kX = static_cast<int>(InputStream::kPosition), kV = static_cast<int>(InputStream::kValve);
-  e.delays[kX] = position * dt;
-  e.delays[kV] = valve * dt;
-  // The offsets' standard uncertainties: a statistical part as of a least-squares parameter, var(tau) =
-  // 2 sigma^2 / S''(tau) with S the sum of squares (rows x the squared rms) and sigma^2 its minimum per row,
-  // inflated by the rows' correlation; and a part of the method, how far the minimum moves with windows
-  // half as long (what the model does not describe pulls the two differently: on the simulated presses the
-  // statistical part alone was 0.02-0.05 ms where the offsets were 0.1-0.2 ms off).
+  for (int round = 0; round < 2; ++round) best = refineRound(cost, best, 1.0);
+  return best;
+}
+
+// The offsets' standard uncertainties: a statistical part as of a least-squares parameter, var(tau) =
+// 2 sigma^2 / S''(tau) with S the sum of squares (rows x the squared rms) and sigma^2 its minimum per row,
+// inflated by the rows' correlation; and a part of the method, how far the minimum moves with windows
+// half as long (what the model does not describe pulls the two differently: on the simulated presses the
+// statistical part alone was 0.02-0.05 ms where the offsets were 0.1-0.2 ms off).
+void setUncertainties(const BalanceCost& cost, const BalanceCost& half_windows, const Refined& best,
+                      double search_range, double dt, TopicDelayEstimate& e) {
+  const double position = best.position, valve = best.valve;
   const BalanceCost::Fit at_minimum = cost(position, valve, true);
   // The sum of squares' curvature along one offset at the minimum, from samples a quarter, half and a whole
   // sample each side (the widest that is convex): the line search's own parabola can sit on a flat stretch.
@@ -569,10 +559,55 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
   // simulated presses was not finer than that (errors up to 0.23 ms on a 1 ms grid; the two parts above
   // alone covered 70 % of them at two standard uncertainties, with the floor all).
   const double floor = dt / 8.0;
+  constexpr int kX = static_cast<int>(InputStream::kPosition), kV = static_cast<int>(InputStream::kValve);
   e.resolution[kX] =
       std::sqrt(std::pow(statistical(true), 2) + std::pow((x_half - position) * dt, 2) + floor * floor);
   e.resolution[kV] =
       std::sqrt(std::pow(statistical(false), 2) + std::pow((v_half - valve) * dt, 2) + floor * floor);
+}
+
+}  // namespace
+
+TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
+                                       const IdentificationConfig& config) {
+  TopicDelayEstimate e;
+  const double dt = config.resampler.sample_period;
+  const std::size_t window = std::max<std::size_t>(2, std::lround(kWindow / dt));
+  const std::size_t end = usableStretch(grid, config);
+  const Signals s = prepare(grid, end, config);
+  const std::size_t reach = static_cast<std::size_t>(std::ceil(config.topic_delay_search / dt)) + 2;
+  std::size_t excited_samples = 0;
+  std::vector<std::size_t> starts = excitedWindows(s, end, window, reach, config, &excited_samples);
+  e.samples = static_cast<int>(excited_samples);
+  if (excited_samples < 2000) {
+    e.message = "too few samples with the cushion moving or the pressure changing (" +
+                std::to_string(excited_samples) + ") to estimate the topics' clock offsets";
+    return e;
+  }
+  // A coarse map over both offsets finds the basin (the offsets interact: a late
+  // pressure looks like early position and valve), then coordinate descent along position, valve and both
+  // together refines it on all windows.
+  std::vector<std::size_t> coarse_starts;
+  // At most kCoarseWindows windows, spread over the stretch, integrated in steps of the map's own step.
+  const std::size_t coarse_stride = std::max<std::size_t>(1, starts.size() / kCoarseWindows);
+  for (std::size_t i = 0; i < starts.size(); i += coarse_stride) coarse_starts.push_back(starts[i]);
+  WhiteNoiseEstimator pressure_noise(4);
+  for (std::size_t i = 2; i < end; ++i) {
+    if (std::isfinite(s.p[i - 2] + s.p[i - 1] + s.p[i])) pressure_noise.add(s.p[i - 2], s.p[i - 1], s.p[i]);
+  }
+  const double step = std::max(1.0, std::round(kCoarseStep / dt));
+  const Signals smoothed = smoothedSignals(s, static_cast<std::size_t>(step) | 1u);
+  const BalanceCost coarse(smoothed, config, dt, std::move(coarse_starts),
+                           pressure_noise.sigma() / std::sqrt(step), kWindow, static_cast<std::size_t>(step));
+  // The same windows' first halves, for the method's share of the uncertainty below.
+  const BalanceCost half_windows(s, config, dt, starts, pressure_noise.sigma(), 0.5 * kWindow);
+  const BalanceCost cost(s, config, dt, std::move(starts), pressure_noise.sigma());
+  const double search_range = config.topic_delay_search / dt;
+  const Refined best = refineBasins(cost, coarseBasins(coarse, search_range, step), step);
+  constexpr int kX = static_cast<int>(InputStream::kPosition), kV = static_cast<int>(InputStream::kValve);
+  e.delays[kX] = best.position * dt;
+  e.delays[kV] = best.valve * dt;
+  setUncertainties(cost, half_windows, best, search_range, dt, e);
   e.valid = std::isfinite(e.delays[kX]) && std::isfinite(e.delays[kV]);
   if (!e.valid) e.message = "the balance could not be fitted at any offset";
   return e;

@@ -101,83 +101,8 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
   if (sample.discontinuity) clear();
   const double raw[kRawCount] = {sample.t, sample.p, sample.x, sample.u, sample.y};
   const bool raw_ready = raw_.push(raw);
-  bool ready = false;
-  if (form_ == RegressionForm::kDerivative) {
-    ready = pushDerivative(sample, usable, point, row);
-  } else {
-    const int span = 2 * side_neighbours_ + 1;
-    // A ring of the last `span` samples (pending(0) the oldest): copying them along each sample cost more
-    // than the rest of the regressor.
-    if (pending_count_ == span) {
-      pending_head_ = (pending_head_ + 1) % span;
-      pending_count_ = span - 1;
-    }
-    const auto pending = [&](int k) -> Pending& { return pending_[(pending_head_ + k) % span]; };
-    // The valve model follows the command: near the kink its spool tells the port side with an error that is
-    // independent of the measured spool's noise. It takes the command's mean over the interval, which holds
-    // the commands a controller faster than the grid issued between grid points (its dither around 0 while
-    // it holds pressure): on u alone the widest windows' dead volume was 0.8 % lower.
-    double modelled = 0.0;
-    const double command = std::isfinite(sample.u_mean) ? sample.u_mean : sample.u;
-    if (side_by_model_ && std::isfinite(command)) {
-      if (!spool_model_started_) {
-        spool_model_.reset(std::isfinite(sample.y) ? sample.y : 0.0);
-        spool_model_started_ = true;
-        modelled = std::isfinite(sample.y) ? sample.y : 0.0;
-      } else {
-        modelled = spool_model_.step(command);
-      }
-    }
-    pending(pending_count_++) = {sample, usable, modelled};
-    if (pending_count_ == span) {
-      const int mid = side_neighbours_;
-      const auto known = [&](int k) { return pending(k).usable && std::isfinite(pending(k).sample.y); };
-      if (known(mid - 1) && known(mid) && known(mid + 1)) {
-        spool_noise_.add(pending(mid - 1).sample.y, pending(mid).sample.y, pending(mid + 1).sample.y);
-      }
-      // Within 3 noise stds of the port's kink the sample's own noisy sign would bias the flow column (its
-      // noise decides the side it is weighed on). Where the grid resolves the valve, the side is judged by the
-      // valve model's spool, moved onto the measurement by the neighbours' mean measured-minus-modelled
-      // spool, whose noise is independent of this sample's; on a coarser grid the model cannot follow the
-      // spool, and the side is weighted 1/2 by the sample's own sign and 1/4 by each neighbour's, which
-      // cancels the bias where the spool is spread evenly (doc/equations.md, "Spool noise at the port's kink").
-      const auto drains = [](double y) { return y >= 0.0 ? 1.0 : 0.0; };
-      const double own = drains(pending(mid).sample.y);
-      double drain_weight = own;
-      const GridSample& middle = pending(mid).sample;
-      const double spool_sigma = spool_noise_.sigma();
-      const bool near_kink = std::abs(middle.y) < 3.0 * spool_sigma;
-      // The oldest sample, not the middle one, goes into the quiet offset: the middle one's own noise must
-      // stay out of its side judgement.
-      if (side_by_model_ && known(0) && std::abs(pending(0).sample.y) < kQuietBand * spool_sigma) {
-        constexpr double kKeep = 1.0 - 1.0 / kQuietOffsetMemory;
-        quiet_offset_sum_ = kKeep * quiet_offset_sum_ + (pending(0).sample.y - pending(0).modelled_spool);
-        quiet_offset_weight_ = kKeep * quiet_offset_weight_ + 1.0;
-      }
-      // Away from the noise's reach a spool that crossed 0 within the interval (a controller dithering it
-      // faster than the grid) drains and fills in it: both parts' flows (dead volume -1.1 % at b 51 / d 35
-      // on the 2 ms grid of a 1 kHz controller without them).
-      const bool split_at_kink = !near_kink && middle.y_drain > 0.0f && middle.y_supply < 0.0f;
-      if (near_kink) {
-        if (side_by_model_ && quiet_offset_weight_ >= span - 1) {
-          drain_weight = drains(pending(mid).modelled_spool + quiet_offset_sum_ / quiet_offset_weight_);
-        } else if (side_by_model_) {
-          double offset = 0.0;
-          int neighbours = 0;
-          for (int k = 0; k < span; ++k) {
-            if (k == mid || !known(k)) continue;
-            offset += pending(k).sample.y - pending(k).modelled_spool;
-            ++neighbours;
-          }
-          if (neighbours > 0) drain_weight = drains(pending(mid).modelled_spool + offset / neighbours);
-        } else {
-          drain_weight = 0.5 * own;
-          for (int k : {mid - 1, mid + 1}) drain_weight += 0.25 * (known(k) ? drains(pending(k).sample.y) : own);
-        }
-      }
-      ready = pushIntegral(middle, pending(mid).usable, drain_weight, split_at_kink, point, row);
-    }
-  }
+  const bool ready = form_ == RegressionForm::kDerivative ? pushDerivative(sample, usable, point, row)
+                                                          : pushPending(sample, usable, point, row);
   if (!ready || !raw_ready) return false;
   row->t = raw_.output(kT);
   row->p = raw_.output(kP);
@@ -187,6 +112,151 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
   row->velocity = row->z / model_.geometry().piston_area;
   row->pressure_rate = row->phi[HydraulicModel::kDeadVolume];  // column a = 1: the window-mean dp/dt
   return true;
+}
+
+double VolumeBalanceRegressor::modelledSpool(const GridSample& sample) {
+  // The valve model follows the command: near the kink its spool tells the port side with an error that is
+  // independent of the measured spool's noise. It takes the command's mean over the interval, which holds
+  // the commands a controller faster than the grid issued between grid points (its dither around 0 while
+  // it holds pressure): on u alone the widest windows' dead volume was 0.8 % lower.
+  const double command = std::isfinite(sample.u_mean) ? sample.u_mean : sample.u;
+  if (!side_by_model_ || !std::isfinite(command)) return 0.0;
+  if (!spool_model_started_) {
+    spool_model_.reset(std::isfinite(sample.y) ? sample.y : 0.0);
+    spool_model_started_ = true;
+    return std::isfinite(sample.y) ? sample.y : 0.0;
+  }
+  return spool_model_.step(command);
+}
+
+bool VolumeBalanceRegressor::pushPending(const GridSample& sample, bool usable, const ParameterVector& point,
+                                         RegressionRow* row) {
+  const int span = 2 * side_neighbours_ + 1;
+  // A ring of the last `span` samples (pending(0) the oldest): copying them along each sample cost more
+  // than the rest of the regressor.
+  if (pending_count_ == span) {
+    pending_head_ = (pending_head_ + 1) % span;
+    pending_count_ = span - 1;
+  }
+  const double modelled = modelledSpool(sample);
+  pending(pending_count_++) = {sample, usable, modelled};
+  if (pending_count_ != span) return false;
+  bool split_at_kink = false;
+  const double drain_weight = middleDrainWeight(&split_at_kink);
+  const Pending& middle = pending(side_neighbours_);
+  return pushIntegral(middle.sample, middle.usable, drain_weight, split_at_kink, point, row);
+}
+
+double VolumeBalanceRegressor::middleDrainWeight(bool* split_at_kink) {
+  const int span = 2 * side_neighbours_ + 1;
+  const int mid = side_neighbours_;
+  const auto known = [&](int k) { return pending(k).usable && std::isfinite(pending(k).sample.y); };
+  if (known(mid - 1) && known(mid) && known(mid + 1)) {
+    spool_noise_.add(pending(mid - 1).sample.y, pending(mid).sample.y, pending(mid + 1).sample.y);
+  }
+  // Within 3 noise stds of the port's kink the sample's own noisy sign would bias the flow column (its
+  // noise decides the side it is weighed on). Where the grid resolves the valve, the side is judged by the
+  // valve model's spool, moved onto the measurement by the neighbours' mean measured-minus-modelled
+  // spool, whose noise is independent of this sample's; on a coarser grid the model cannot follow the
+  // spool, and the side is weighted 1/2 by the sample's own sign and 1/4 by each neighbour's, which
+  // cancels the bias where the spool is spread evenly (doc/equations.md, "Spool noise at the port's kink").
+  const auto drains = [](double y) { return y >= 0.0 ? 1.0 : 0.0; };
+  const double own = drains(pending(mid).sample.y);
+  const GridSample& middle = pending(mid).sample;
+  const double spool_sigma = spool_noise_.sigma();
+  const bool near_kink = std::abs(middle.y) < 3.0 * spool_sigma;
+  // The oldest sample, not the middle one, goes into the quiet offset: the middle one's own noise must
+  // stay out of its side judgement.
+  if (side_by_model_ && known(0) && std::abs(pending(0).sample.y) < kQuietBand * spool_sigma) {
+    constexpr double kKeep = 1.0 - 1.0 / kQuietOffsetMemory;
+    quiet_offset_sum_ = kKeep * quiet_offset_sum_ + (pending(0).sample.y - pending(0).modelled_spool);
+    quiet_offset_weight_ = kKeep * quiet_offset_weight_ + 1.0;
+  }
+  // Away from the noise's reach a spool that crossed 0 within the interval (a controller dithering it
+  // faster than the grid) drains and fills in it: both parts' flows (dead volume -1.1 % at b 51 / d 35
+  // on the 2 ms grid of a 1 kHz controller without them).
+  *split_at_kink = !near_kink && middle.y_drain > 0.0f && middle.y_supply < 0.0f;
+  if (!near_kink) return own;
+  if (side_by_model_ && quiet_offset_weight_ >= span - 1) {
+    return drains(pending(mid).modelled_spool + quiet_offset_sum_ / quiet_offset_weight_);
+  }
+  if (side_by_model_) {
+    double offset = 0.0;
+    int neighbours = 0;
+    for (int k = 0; k < span; ++k) {
+      if (k == mid || !known(k)) continue;
+      offset += pending(k).sample.y - pending(k).modelled_spool;
+      ++neighbours;
+    }
+    return neighbours > 0 ? drains(pending(mid).modelled_spool + offset / neighbours) : own;
+  }
+  double drain_weight = 0.5 * own;
+  for (int k : {mid - 1, mid + 1}) drain_weight += 0.25 * (known(k) ? drains(pending(k).sample.y) : own);
+  return drain_weight;
+}
+
+void VolumeBalanceRegressor::nodeColumns(Node& node, double drain_weight, bool split_at_kink,
+                                         const ParameterVector& point) {
+  const GridSample& s = node.sample;
+  const Node* before = node_count_ > 0 ? &nodes_[node_count_ - 1] : nullptr;
+  const bool have_before = before && before->usable;
+  const double v = have_before ? (s.x - before->sample.x) / dt_ : 0.0;
+  const double dp = have_before ? (s.p - before->sample.p) / dt_ : 0.0;
+  HydraulicSignals signals = signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, point);
+  if (drain_weight == 0.0 || drain_weight == 1.0) {
+    signals.port_side = drain_weight == 1.0 ? 1.0 : -1.0;
+    model_.regressionColumns(signals, point, node.a, node.g);
+  } else {  // the spool near its kink: the columns of both ports, weighted
+    double a_supply[kMaxParameters], g_supply[kMaxParameters];
+    signals.port_side = 1.0;
+    model_.regressionColumns(signals, point, node.a, node.g);
+    signals.port_side = -1.0;
+    model_.regressionColumns(signals, point, a_supply, g_supply);
+    for (int j = 0; j < n_; ++j) {
+      node.a[j] = drain_weight * node.a[j] + (1.0 - drain_weight) * a_supply[j];
+      node.g[j] = drain_weight * node.g[j] + (1.0 - drain_weight) * g_supply[j];
+    }
+  }
+  if (!split_at_kink) return;
+  double a_part[kMaxParameters], g_drain[kMaxParameters], g_supply[kMaxParameters];
+  signals.y = s.y_drain;
+  signals.port_side = 1.0;
+  model_.regressionColumns(signals, point, a_part, g_drain);
+  signals.y = s.y_supply;
+  signals.port_side = -1.0;
+  model_.regressionColumns(signals, point, a_part, g_supply);
+  for (int j = 0; j < n_; ++j) {
+    if (valve_column_[j]) node.g[j] = g_drain[j] + g_supply[j];
+  }
+}
+
+void VolumeBalanceRegressor::incrementBetweenNodes(double* channels) {
+  if (!(nodes_[0].usable && nodes_[1].usable && nodes_[2].usable && nodes_[3].usable)) {
+    channels[n_ + 1] = 1.0;
+    return;
+  }
+  const GridSample& s1 = nodes_[1].sample;
+  const GridSample& s2 = nodes_[2].sample;
+  const double dp = s2.p - s1.p;
+  channels[0] = model_.geometry().piston_area * (s2.x - s1.x);
+  const double w_outer = -dt_ / 24.0, w_inner = 13.0 * dt_ / 24.0;
+  for (int j = 0; j < n_; ++j) {
+    double capacitive = 0.5 * (nodes_[1].a[j] + nodes_[2].a[j]) * dp;
+    if (j >= HydraulicModel::kFirstEffect) {
+      HydraulicSignals from, to;
+      from.p = s1.p;
+      from.x = s1.x;
+      to.p = s2.p;
+      to.x = s2.x;
+      double exact = 0.0;
+      const Effect& e = model_.effect(j - HydraulicModel::kFirstEffect);
+      if (e.coupling() == Effect::Coupling::kAdditive && e.capacitanceIncrement(from, to, &exact))
+        capacitive = exact;
+    }
+    const double flow =
+        w_outer * (nodes_[0].g[j] + nodes_[3].g[j]) + w_inner * (nodes_[1].g[j] + nodes_[2].g[j]);
+    channels[j + 1] = capacitive + flow;
+  }
 }
 
 // The balance A dx = sum_j c_j (a_j dp + g_j dt) holds for every increment, so it also holds for any linear
@@ -204,75 +274,15 @@ bool VolumeBalanceRegressor::pushIntegral(const GridSample& s, bool usable, doub
   Node& node = nodes_[node_count_];
   node.sample = s;
   node.usable = usable;
-  if (usable) {
-    const Node* before = node_count_ > 0 ? &nodes_[node_count_ - 1] : nullptr;
-    const bool have_before = before && before->usable;
-    const double v = have_before ? (s.x - before->sample.x) / dt_ : 0.0;
-    const double dp = have_before ? (s.p - before->sample.p) / dt_ : 0.0;
-    HydraulicSignals signals = signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, point);
-    if (drain_weight == 0.0 || drain_weight == 1.0) {
-      signals.port_side = drain_weight == 1.0 ? 1.0 : -1.0;
-      model_.regressionColumns(signals, point, node.a, node.g);
-    } else {  // the spool near its kink: the columns of both ports, weighted
-      double a_supply[kMaxParameters], g_supply[kMaxParameters];
-      signals.port_side = 1.0;
-      model_.regressionColumns(signals, point, node.a, node.g);
-      signals.port_side = -1.0;
-      model_.regressionColumns(signals, point, a_supply, g_supply);
-      for (int j = 0; j < n_; ++j) {
-        node.a[j] = drain_weight * node.a[j] + (1.0 - drain_weight) * a_supply[j];
-        node.g[j] = drain_weight * node.g[j] + (1.0 - drain_weight) * g_supply[j];
-      }
-    }
-    if (split_at_kink) {
-      double a_part[kMaxParameters], g_drain[kMaxParameters], g_supply[kMaxParameters];
-      signals.y = s.y_drain;
-      signals.port_side = 1.0;
-      model_.regressionColumns(signals, point, a_part, g_drain);
-      signals.y = s.y_supply;
-      signals.port_side = -1.0;
-      model_.regressionColumns(signals, point, a_part, g_supply);
-      for (int j = 0; j < n_; ++j) {
-        if (valve_column_[j]) node.g[j] = g_drain[j] + g_supply[j];
-      }
-    }
-  }
+  if (usable) nodeColumns(node, drain_weight, split_at_kink, point);
   ++node_count_;
   if (node_count_ < 4) return false;
-
-  // The increment between nodes 1 and 2, with nodes 0 and 3 as the outer quadrature points.
-  double* channels = scratch_.data();  // [z, phi_0 .. phi_{n-1}, unusable]
+  double* channels = scratch_.data();
   std::fill(scratch_.begin(), scratch_.end(), 0.0);
-  if (nodes_[0].usable && nodes_[1].usable && nodes_[2].usable && nodes_[3].usable) {
-    const GridSample& s1 = nodes_[1].sample;
-    const GridSample& s2 = nodes_[2].sample;
-    const double dp = s2.p - s1.p;
-    channels[0] = model_.geometry().piston_area * (s2.x - s1.x);
-    const double w_outer = -dt_ / 24.0, w_inner = 13.0 * dt_ / 24.0;
-    for (int j = 0; j < n_; ++j) {
-      double capacitive = 0.5 * (nodes_[1].a[j] + nodes_[2].a[j]) * dp;
-      if (j >= HydraulicModel::kFirstEffect) {
-        HydraulicSignals from, to;
-        from.p = s1.p;
-        from.x = s1.x;
-        to.p = s2.p;
-        to.x = s2.x;
-        double exact = 0.0;
-        const Effect& e = model_.effect(j - HydraulicModel::kFirstEffect);
-        if (e.coupling() == Effect::Coupling::kAdditive && e.capacitanceIncrement(from, to, &exact)) capacitive = exact;
-      }
-      const double flow =
-          w_outer * (nodes_[0].g[j] + nodes_[3].g[j]) + w_inner * (nodes_[1].g[j] + nodes_[2].g[j]);
-      channels[j + 1] = capacitive + flow;
-    }
-  } else {
-    channels[n_ + 1] = 1.0;
-  }
-
+  incrementBetweenNodes(channels);
   increment_window_.push(channels);
   if (!increment_window_.full()) return false;
   if (!window_average_.push(increment_window_.sum())) return false;
-
   const auto& averaged = window_average_.output();
   const double per_second = 1.0 / (static_cast<double>(increment_window_.width()) * dt_);
   row->z = averaged[0] * per_second;

@@ -239,35 +239,65 @@ UniformResampler::ValveIntervalMeans UniformResampler::valveIntervalMeans(double
   return means;
 }
 
+bool UniformResampler::startGrid(bool flushing) {
+  // Start once every stream has spoken, or once a silent stream is overdue (it is then reported stale).
+  double latest_first = -std::numeric_limits<double>::infinity();
+  double earliest_first = std::numeric_limits<double>::infinity();
+  int speaking = 0;
+  for (const auto& c : channels_) {
+    if (c.buffer.empty()) continue;
+    ++speaking;
+    latest_first = std::max(latest_first, c.buffer.front().stamp);
+    earliest_first = std::min(earliest_first, c.buffer.front().stamp);
+  }
+  if (speaking == 0) return false;
+  if (speaking < kInputStreamCount && newest_stamp_ - earliest_first < config_.stale_timeout && !flushing)
+    return false;
+  next_index_ = static_cast<std::int64_t>(std::ceil(latest_first / config_.sample_period - 1e-9));
+  grid_started_ = true;
+  return true;
+}
+
+GridSample UniformResampler::sampleAt(double t, const GridValues& values) const {
+  constexpr int kP = static_cast<int>(InputStream::kPressure);
+  constexpr int kX = static_cast<int>(InputStream::kPosition);
+  constexpr int kV = static_cast<int>(InputStream::kValve);
+  const double dt = config_.sample_period;
+  GridSample g;
+  g.t = t;
+  g.p = values.first[kP];
+  g.x = values.first[kX];
+  g.v = values.second[kX];
+  g.u = values.first[kV];
+  g.y = values.second[kV];
+  const ValveIntervalMeans means = valveIntervalMeans(t - 0.5 * dt, t + 0.5 * dt);
+  if (std::isfinite(g.y)) {
+    g.y_drain = static_cast<float>(means.drain);
+    g.y_supply = static_cast<float>(means.supply);
+  }
+  if (std::isfinite(g.u)) g.u_mean = static_cast<float>(means.command);
+  g.y_model = static_cast<float>(values.modelled_spool);
+  g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
+  return g;
+}
+
+void UniformResampler::dropMessagesBefore(double t_next) {
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    auto& buffer = channels_[s].buffer;
+    const double keep_from = t_next - lead(s);
+    while (buffer.size() >= 2 && buffer[1].stamp <= keep_from) buffer.pop_front();
+  }
+}
+
 void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
   const double dt = config_.sample_period;
-  if (!grid_started_) {
-    // Start once every stream has spoken, or once a silent stream is overdue (it is then reported stale).
-    double latest_first = -std::numeric_limits<double>::infinity();
-    double earliest_first = std::numeric_limits<double>::infinity();
-    int speaking = 0;
-    for (const auto& c : channels_) {
-      if (c.buffer.empty()) continue;
-      ++speaking;
-      latest_first = std::max(latest_first, c.buffer.front().stamp);
-      earliest_first = std::min(earliest_first, c.buffer.front().stamp);
-    }
-    if (speaking == 0) return;
-    if (speaking < kInputStreamCount && newest_stamp_ - earliest_first < config_.stale_timeout && !flushing)
-      return;
-    next_index_ = static_cast<std::int64_t>(std::ceil(latest_first / dt - 1e-9));
-    grid_started_ = true;
-  }
-
+  if (!grid_started_ && !startGrid(flushing)) return;
   for (;;) {
     const double t = static_cast<double>(next_index_) * dt;
     bool must_wait = false;
     bool any_bracketed = false;
     double resume = std::numeric_limits<double>::infinity();
-    // Each stream's interpolated (first, second) at t; NaN where it has nothing to bracket t with.
-    double first[kInputStreamCount] = {kNaN, kNaN, kNaN};
-    double second[kInputStreamCount] = {kNaN, kNaN, kNaN};
-    double modelled_spool = kNaN;
+    GridValues values;  // NaN where a stream has nothing to bracket t with
     for (int s = 0; s < kInputStreamCount; ++s) {
       const Channel& c = channels_[s];
       StreamHealth& h = health_[s];
@@ -280,7 +310,10 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
           }
         }
         const bool valve = s == static_cast<int>(InputStream::kValve);
-        if (interpolate(s, t, &first[s], &second[s], valve ? &modelled_spool : nullptr)) any_bracketed = true;
+        if (interpolate(s, t, &values.first[s], &values.second[s],
+                        valve ? &values.modelled_spool : nullptr)) {
+          any_bracketed = true;
+        }
         continue;
       }
       const double silent_since = c.has_any ? c.buffer.back().stamp : first_stamp_;
@@ -298,36 +331,12 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
         continue;
       }
     }
-
-    constexpr int kP = static_cast<int>(InputStream::kPressure);
-    constexpr int kX = static_cast<int>(InputStream::kPosition);
-    constexpr int kV = static_cast<int>(InputStream::kValve);
-    GridSample g;
-    g.t = t;
-    g.p = first[kP];
-    g.x = first[kX];
-    g.v = second[kX];
-    g.u = first[kV];
-    g.y = second[kV];
-    const ValveIntervalMeans means = valveIntervalMeans(t - 0.5 * dt, t + 0.5 * dt);
-    if (std::isfinite(g.y)) {
-      g.y_drain = static_cast<float>(means.drain);
-      g.y_supply = static_cast<float>(means.supply);
-    }
-    if (std::isfinite(g.u)) g.u_mean = static_cast<float>(means.command);
-    g.y_model = static_cast<float>(modelled_spool);
-    g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
+    GridSample g = sampleAt(t, values);
     g.discontinuity = pending_discontinuity_;
     pending_discontinuity_ = false;
     out->push_back(g);
     ++next_index_;
-
-    const double t_next = static_cast<double>(next_index_) * dt;
-    for (int s = 0; s < kInputStreamCount; ++s) {
-      auto& buffer = channels_[s].buffer;
-      const double keep_from = t_next - lead(s);
-      while (buffer.size() >= 2 && buffer[1].stamp <= keep_from) buffer.pop_front();
-    }
+    dropMessagesBefore(static_cast<double>(next_index_) * dt);
   }
 }
 

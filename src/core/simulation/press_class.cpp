@@ -84,78 +84,108 @@ std::map<std::string, double> effectParametersFor(const SimulatorConfig& plant, 
   };
 }
 
+namespace {
+
+// The paper's press: the defaults, only the drawn plant moves away from them.
+void drawSlowHydraulic(SimulatorConfig& plant, Spread& spread) {
+  PressCycleConfig& cycle = plant.cycle;
+  plant.parameters["bulk_modulus"] = spread(1.2e9, 0.9e9, 1.6e9);
+  plant.parameters["valve_flow_gain"] = spread(6e-6, 5e-6, 7.5e-6);
+  plant.parameters["dead_volume"] = spread(3e-3, 1.5e-3, 5e-3);
+  cycle.drawing_speed = spread(0.2, 0.15, 0.25);
+}
+
+// A mechanical or servo press: a crank, fast drawing, a short impact, a large fast valve.
+void drawFastMechanical(SimulatorConfig& plant, Spread& spread) {
+  PressCycleConfig& cycle = plant.cycle;
+  ServoValveParameters& valve = plant.valve;
+  CylinderGeometry& geometry = plant.geometry;
+  geometry.stroke_length = 0.2;
+  geometry.supply_pressure = 150e5;
+  cycle.motion = RamMotion::kCrank;
+  cycle.crank_radius = spread(0.15, 0.12, 0.2);
+  cycle.drawing_depth = spread(0.12, 0.1, 0.14);
+  cycle.drawing_speed = spread(0.5, 0.4, 0.6);
+  cycle.impact_time = spread(0.004, 0.003, 0.005);
+  cycle.rest_time = 0.3;
+  cycle.bottom_hold_time = 0.05;
+  cycle.release_time = 0.04;
+  cycle.return_speed = 0.4;
+  cycle.return_ramp_time = 0.03;
+  cycle.drawing_end_pressure = 140e5;
+  plant.parameters["bulk_modulus"] = spread(1.7e9, 1.4e9, 2.0e9);
+  plant.parameters["valve_flow_gain"] = spread(2.4e-5, 2e-5, 3e-5);
+  plant.parameters["dead_volume"] = spread(2e-3, 1.5e-3, 3e-3);
+  valve.natural_frequency = spread(160.0, 140.0, 200.0);
+  valve.dead_time = spread(0.001, 0.0007, 0.0012);
+}
+
+// A small stiff chamber: a small piston and dead volume, high pressures.
+void drawSmallStiff(SimulatorConfig& plant, Spread& spread) {
+  PressCycleConfig& cycle = plant.cycle;
+  ServoValveParameters& valve = plant.valve;
+  CylinderGeometry& geometry = plant.geometry;
+  geometry.piston_area = 0.02;
+  geometry.stroke_length = 0.15;
+  geometry.supply_pressure = 210e5;
+  cycle.drawing_depth = 0.12;
+  cycle.drawing_speed = spread(0.2, 0.15, 0.3);
+  cycle.impact_time = 0.015;
+  cycle.pre_pressure = 40e5;
+  cycle.drawing_start_pressure = 120e5;
+  cycle.drawing_end_pressure = 180e5;
+  cycle.release_pressure = 8e5;
+  cycle.return_pressure = 20e5;
+  plant.parameters["bulk_modulus"] = spread(1.8e9, 1.5e9, 2.0e9);
+  plant.parameters["valve_flow_gain"] = spread(2.5e-6, 2e-6, 3.2e-6);
+  plant.parameters["dead_volume"] = spread(1e-3, 0.6e-3, 1.5e-3);
+  valve.natural_frequency = spread(100.0, 80.0, 120.0);
+  valve.dead_time = spread(0.0015, 0.001, 0.002);
+}
+
+// A large soft chamber: a large piston and dead volume, a slow valve.
+void drawLargeSoft(SimulatorConfig& plant, Spread& spread) {
+  PressCycleConfig& cycle = plant.cycle;
+  ServoValveParameters& valve = plant.valve;
+  CylinderGeometry& geometry = plant.geometry;
+  geometry.piston_area = 0.2;
+  geometry.stroke_length = 0.3;
+  geometry.supply_pressure = 100e5;
+  cycle.drawing_depth = 0.22;
+  cycle.drawing_speed = spread(0.15, 0.1, 0.2);
+  cycle.impact_time = 0.03;
+  cycle.pre_pressure = 20e5;
+  cycle.drawing_start_pressure = 50e5;
+  cycle.drawing_end_pressure = 80e5;
+  cycle.release_pressure = 4e5;
+  cycle.return_pressure = 10e5;
+  plant.parameters["bulk_modulus"] = spread(0.9e9, 0.7e9, 1.1e9);
+  plant.parameters["valve_flow_gain"] = spread(2.4e-5, 2e-5, 3e-5);
+  plant.parameters["dead_volume"] = spread(20e-3, 10e-3, 30e-3);
+  valve.natural_frequency = spread(50.0, 40.0, 60.0);
+  valve.dead_time = spread(0.003, 0.0025, 0.004);
+}
+
+}  // namespace
+
 SimulatorConfig pressClassPlant(PressClass press, std::uint64_t variation, const std::vector<std::string>& effects,
                                 std::uint64_t seed) {
   SimulatorConfig plant;
   plant.seed = seed;
   plant.effects = effects;
   Spread spread(variation);
-  PressCycleConfig& cycle = plant.cycle;
-  ServoValveParameters& valve = plant.valve;
-  CylinderGeometry& geometry = plant.geometry;
   switch (press) {
     case PressClass::kSlowHydraulic:
-      // The defaults are the paper's press; only the drawn plant moves away from them.
-      plant.parameters["bulk_modulus"] = spread(1.2e9, 0.9e9, 1.6e9);
-      plant.parameters["valve_flow_gain"] = spread(6e-6, 5e-6, 7.5e-6);
-      plant.parameters["dead_volume"] = spread(3e-3, 1.5e-3, 5e-3);
-      cycle.drawing_speed = spread(0.2, 0.15, 0.25);
+      drawSlowHydraulic(plant, spread);
       break;
     case PressClass::kFastMechanical:
-      geometry.stroke_length = 0.2;
-      geometry.supply_pressure = 150e5;
-      cycle.motion = RamMotion::kCrank;
-      cycle.crank_radius = spread(0.15, 0.12, 0.2);
-      cycle.drawing_depth = spread(0.12, 0.1, 0.14);
-      cycle.drawing_speed = spread(0.5, 0.4, 0.6);
-      cycle.impact_time = spread(0.004, 0.003, 0.005);
-      cycle.rest_time = 0.3;
-      cycle.bottom_hold_time = 0.05;
-      cycle.release_time = 0.04;
-      cycle.return_speed = 0.4;
-      cycle.return_ramp_time = 0.03;
-      cycle.drawing_end_pressure = 140e5;
-      plant.parameters["bulk_modulus"] = spread(1.7e9, 1.4e9, 2.0e9);
-      plant.parameters["valve_flow_gain"] = spread(2.4e-5, 2e-5, 3e-5);
-      plant.parameters["dead_volume"] = spread(2e-3, 1.5e-3, 3e-3);
-      valve.natural_frequency = spread(160.0, 140.0, 200.0);
-      valve.dead_time = spread(0.001, 0.0007, 0.0012);
+      drawFastMechanical(plant, spread);
       break;
     case PressClass::kSmallStiff:
-      geometry.piston_area = 0.02;
-      geometry.stroke_length = 0.15;
-      geometry.supply_pressure = 210e5;
-      cycle.drawing_depth = 0.12;
-      cycle.drawing_speed = spread(0.2, 0.15, 0.3);
-      cycle.impact_time = 0.015;
-      cycle.pre_pressure = 40e5;
-      cycle.drawing_start_pressure = 120e5;
-      cycle.drawing_end_pressure = 180e5;
-      cycle.release_pressure = 8e5;
-      cycle.return_pressure = 20e5;
-      plant.parameters["bulk_modulus"] = spread(1.8e9, 1.5e9, 2.0e9);
-      plant.parameters["valve_flow_gain"] = spread(2.5e-6, 2e-6, 3.2e-6);
-      plant.parameters["dead_volume"] = spread(1e-3, 0.6e-3, 1.5e-3);
-      valve.natural_frequency = spread(100.0, 80.0, 120.0);
-      valve.dead_time = spread(0.0015, 0.001, 0.002);
+      drawSmallStiff(plant, spread);
       break;
     case PressClass::kLargeSoft:
-      geometry.piston_area = 0.2;
-      geometry.stroke_length = 0.3;
-      geometry.supply_pressure = 100e5;
-      cycle.drawing_depth = 0.22;
-      cycle.drawing_speed = spread(0.15, 0.1, 0.2);
-      cycle.impact_time = 0.03;
-      cycle.pre_pressure = 20e5;
-      cycle.drawing_start_pressure = 50e5;
-      cycle.drawing_end_pressure = 80e5;
-      cycle.release_pressure = 4e5;
-      cycle.return_pressure = 10e5;
-      plant.parameters["bulk_modulus"] = spread(0.9e9, 0.7e9, 1.1e9);
-      plant.parameters["valve_flow_gain"] = spread(2.4e-5, 2e-5, 3e-5);
-      plant.parameters["dead_volume"] = spread(20e-3, 10e-3, 30e-3);
-      valve.natural_frequency = spread(50.0, 40.0, 60.0);
-      valve.dead_time = spread(0.003, 0.0025, 0.004);
+      drawLargeSoft(plant, spread);
       break;
   }
   if (press != PressClass::kSlowHydraulic || variation != 0) tuneController(plant);
@@ -165,7 +195,7 @@ SimulatorConfig pressClassPlant(PressClass press, std::uint64_t variation, const
   if (press == PressClass::kSlowHydraulic && variation == 0) return plant;  // defaultTrueParameters()
   const auto effect_parameters = effectParametersFor(plant, variation);
   for (const auto& name : effects) {
-    const std::string parameter = makeLibraryEffect(name)->parameterFor(geometry).name;
+    const std::string parameter = makeLibraryEffect(name)->parameterFor(plant.geometry).name;
     const auto it = effect_parameters.find(parameter);
     if (it != effect_parameters.end()) plant.parameters[parameter] = it->second;
   }

@@ -126,9 +126,11 @@ std::complex<double> servoValveResponse(const ServoValveParameters& parameters, 
   return parameters.gain * std::polar(1.0, -2.0 * M_PI * frequency * parameters.dead_time) / second_order;
 }
 
-ServoValveFit fitServoValve(std::vector<FrequencyResponsePoint> measured) {
-  ServoValveFit fit;
-  unwrapPhases(&measured);
+namespace {
+
+// The undistorted, finite points with their noise; counts the distorted ones in `fit`.
+std::vector<WeightedPoint> weightedPoints(const std::vector<FrequencyResponsePoint>& measured,
+                                          ServoValveFit& fit) {
   std::vector<WeightedPoint> points;
   for (const auto& p : measured) {
     if (p.distorted) {
@@ -142,16 +144,29 @@ ServoValveFit fitServoValve(std::vector<FrequencyResponsePoint> measured) {
     const double update_rate = p.command_hold > 0.0 ? 1.0 / p.command_hold : 0.0;
     points.push_back({p.frequency, p.magnitude, sigma, p.phase, phase_sigma, p.re, p.im, update_rate});
   }
-  fit.points_used = static_cast<int>(points.size());
-  if (points.size() < 5) {
-    fit.message = "the fit needs at least 5 undistorted frequency points, got " +
-                  std::to_string(points.size()) + " (" + std::to_string(fit.points_rejected) +
-                  " rejected as distorted" +
-                  (fit.points_rejected > 0 ? ": lower the amplitude until the spool follows linearly)" : ")");
-    return fit;
-  }
+  return points;
+}
 
-  double x[3];
+ceres::Solver::Options solverOptions() {
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = 200;
+  options.function_tolerance = 1e-12;
+  options.parameter_tolerance = 1e-12;
+  options.logging_type = ceres::SILENT;
+  return options;
+}
+
+// Natural frequency and damping inside the bounds the sweep's frequencies can tell.
+void boundFrequencyAndDamping(ceres::Problem& problem, double* x, const std::vector<WeightedPoint>& points) {
+  problem.SetParameterLowerBound(x, 0, 1e-2 * points.front().f);
+  problem.SetParameterUpperBound(x, 0, 1e3 * points.back().f);
+  problem.SetParameterLowerBound(x, 1, 1e-3);
+  problem.SetParameterUpperBound(x, 1, 20.0);
+}
+
+// x = [natural frequency, damping, |gain|] fitted to the magnitudes from the grid's start; "" or why not.
+std::string fitMagnitudes(const std::vector<WeightedPoint>& points, double x[3]) {
   gridStart(points, x);
   ceres::Problem problem;
   for (const auto& p : points) {
@@ -159,48 +174,28 @@ ServoValveFit fitServoValve(std::vector<FrequencyResponsePoint> measured) {
         new ceres::AutoDiffCostFunction<MagnitudeResidual, 1, 3>(new MagnitudeResidual{p.f, p.m, p.sigma}),
         nullptr, x);
   }
-  problem.SetParameterLowerBound(x, 0, 1e-2 * points.front().f);
-  problem.SetParameterUpperBound(x, 0, 1e3 * points.back().f);
-  problem.SetParameterLowerBound(x, 1, 1e-3);
-  problem.SetParameterUpperBound(x, 1, 20.0);
+  boundFrequencyAndDamping(problem, x, points);
   problem.SetParameterLowerBound(x, 2, 0.0);
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.max_num_iterations = 200;
-  options.function_tolerance = 1e-12;
-  options.parameter_tolerance = 1e-12;
-  options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  if (!summary.IsSolutionUsable()) {
-    fit.message = "the magnitude fit did not converge: " + summary.message;
-    return fit;
-  }
+  ceres::Solve(solverOptions(), &problem, &summary);
+  return summary.IsSolutionUsable() ? "" : "the magnitude fit did not converge: " + summary.message;
+}
 
-  // A valve wired with inverted polarity starts at a phase of pi instead of 0.
-  const double static_phase =
-      std::abs(points.front().phase) > 0.5 * M_PI ? std::copysign(M_PI, points.front().phase) : 0.0;
-  const double start_dead_time = fitDeadTime(points, static_phase, x[0], x[1]);
-
-  // The magnitude-then-phase fit is only the start: natural frequency, damping, gain and dead time are fitted
-  // jointly to the complex points, with the held command's images, so that the covariance sees how the
-  // phase constrains f0 and D and the dead time is not fitted to the 2nd-order phase of a biased f0.
-  double y[4] = {x[0], x[1], static_phase != 0.0 ? -x[2] : x[2], start_dead_time};
+// The magnitude-then-phase fit is only the start: natural frequency, damping, gain and dead time are fitted
+// jointly to the complex points, with the held command's images, so that the covariance sees how the
+// phase constrains f0 and D and the dead time is not fitted to the 2nd-order phase of a biased f0.
+// y = [natural frequency, damping, gain, dead time]; fills the fit's stds and chi-square; "" or why not.
+std::string fitComplexResponse(const std::vector<WeightedPoint>& points, double y[4], ServoValveFit& fit) {
   ceres::Problem joint;
   for (const auto& p : points) {
     joint.AddResidualBlock(new ceres::AutoDiffCostFunction<ComplexResidual, 2, 4>(
                                new ComplexResidual{p.f, p.re, p.im, p.sigma, p.update_rate}),
                            nullptr, y);
   }
-  joint.SetParameterLowerBound(y, 0, 1e-2 * points.front().f);
-  joint.SetParameterUpperBound(y, 0, 1e3 * points.back().f);
-  joint.SetParameterLowerBound(y, 1, 1e-3);
-  joint.SetParameterUpperBound(y, 1, 20.0);
-  ceres::Solve(options, &joint, &summary);
-  if (!summary.IsSolutionUsable()) {
-    fit.message = "the complex fit did not converge: " + summary.message;
-    return fit;
-  }
+  boundFrequencyAndDamping(joint, y, points);
+  ceres::Solver::Summary summary;
+  ceres::Solve(solverOptions(), &joint, &summary);
+  if (!summary.IsSolutionUsable()) return "the complex fit did not converge: " + summary.message;
 
   const int dof = 2 * static_cast<int>(points.size()) - 4;
   fit.reduced_chi_square = 2.0 * summary.final_cost / dof;
@@ -218,11 +213,11 @@ ServoValveFit fitServoValve(std::vector<FrequencyResponsePoint> measured) {
   fit.damping_std = std_of(1);
   fit.gain_std = std_of(2);
   fit.dead_time_std = std_of(3);
+  return "";
+}
 
-  fit.parameters.natural_frequency = y[0];
-  fit.parameters.damping = y[1];
-  fit.parameters.gain = y[2];
-  fit.parameters.dead_time = y[3];
+// How far the fitted response misses the points in magnitude and phase.
+void residualRms(const std::vector<WeightedPoint>& points, const double y[4], ServoValveFit& fit) {
   double magnitude_squares = 0.0, phase_squares = 0.0;
   for (const auto& p : points) {
     double residual[2];
@@ -233,6 +228,37 @@ ServoValveFit fitServoValve(std::vector<FrequencyResponsePoint> measured) {
   }
   fit.magnitude_residual_rms = std::sqrt(magnitude_squares / points.size());
   fit.phase_residual_rms = std::sqrt(phase_squares / points.size());
+}
+
+}  // namespace
+
+ServoValveFit fitServoValve(std::vector<FrequencyResponsePoint> measured) {
+  ServoValveFit fit;
+  unwrapPhases(&measured);
+  const std::vector<WeightedPoint> points = weightedPoints(measured, fit);
+  fit.points_used = static_cast<int>(points.size());
+  if (points.size() < 5) {
+    fit.message = "the fit needs at least 5 undistorted frequency points, got " +
+                  std::to_string(points.size()) + " (" + std::to_string(fit.points_rejected) +
+                  " rejected as distorted" +
+                  (fit.points_rejected > 0 ? ": lower the amplitude until the spool follows linearly)" : ")");
+    return fit;
+  }
+  double x[3];
+  fit.message = fitMagnitudes(points, x);
+  if (!fit.message.empty()) return fit;
+  // A valve wired with inverted polarity starts at a phase of pi instead of 0.
+  const double static_phase =
+      std::abs(points.front().phase) > 0.5 * M_PI ? std::copysign(M_PI, points.front().phase) : 0.0;
+  double y[4] = {x[0], x[1], static_phase != 0.0 ? -x[2] : x[2],
+                 fitDeadTime(points, static_phase, x[0], x[1])};
+  fit.message = fitComplexResponse(points, y, fit);
+  if (!fit.message.empty()) return fit;
+  fit.parameters.natural_frequency = y[0];
+  fit.parameters.damping = y[1];
+  fit.parameters.gain = y[2];
+  fit.parameters.dead_time = y[3];
+  residualRms(points, y, fit);
   fit.success = true;
   fit.message = "fitted " + std::to_string(points.size()) + " points";
   return fit;

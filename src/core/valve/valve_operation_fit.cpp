@@ -93,10 +93,10 @@ double solveOutputError(const std::vector<ValveSample>& samples, double max_gap,
 
 }  // namespace
 
-ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const ServoValveParameters& start,
-                                      double max_gap, std::size_t max_samples) {
-  ValveOperationFit fit;
-  fit.parameters = start;
+namespace {
+
+// The finite samples with a measured spool, in time order, up to max_samples.
+std::vector<ValveSample> usableSamples(const std::vector<ValveSample>& all, std::size_t max_samples) {
   std::vector<ValveSample> samples;
   for (const ValveSample& s : all) {
     if (samples.size() >= max_samples) break;
@@ -105,6 +105,37 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
       samples.push_back(s);
     }
   }
+  return samples;
+}
+
+// From the starting model and from starts at half and twice its natural frequency and other dead times,
+// the best kept: a start far off settles in a local minimum where the natural frequency trades against the
+// dead time (104 Hz and no dead time for a 164 Hz, 0.85 ms valve, its spool residual only 7 % above the
+// sensor's noise). Fills `best`.
+void bestStart(const std::vector<ValveSample>& search, const ServoValveParameters& start, double max_gap,
+               double best[kParameters]) {
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const auto& [f_factor, dead_time_factor] :
+       {std::pair<double, double>{1.0, 1.0}, {0.5, 1.0}, {2.0, 1.0}, {1.0, 0.4}, {2.0, 0.4}, {0.5, 2.0}}) {
+    double v[kParameters] = {std::log(std::clamp(start.natural_frequency * f_factor, 5.0, 2000.0)),
+                             std::log(std::clamp(start.damping, 0.1, 3.0)), start.gain,
+                             std::clamp(start.dead_time * dead_time_factor * 1e3, 0.0, 20.0)};
+    if (!std::isfinite(v[2]) || v[2] == 0.0) v[2] = 0.1;
+    const double cost = solveOutputError<ceres::FORWARD>(search, max_gap, 20, v);
+    if (cost < best_cost) {
+      best_cost = cost;
+      std::copy(v, v + kParameters, best);
+    }
+  }
+}
+
+}  // namespace
+
+ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const ServoValveParameters& start,
+                                      double max_gap, std::size_t max_samples) {
+  ValveOperationFit fit;
+  fit.parameters = start;
+  const std::vector<ValveSample> samples = usableSamples(all, max_samples);
   fit.samples = static_cast<int>(samples.size());
   if (samples.size() < 200) {
     fit.message = "too few valve messages with a measured spool (" + std::to_string(samples.size()) + ")";
@@ -131,25 +162,8 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
   // press whose flow starts at 3 % opening); refined on up to 15000 it came to 161-162 Hz.
   const std::vector<ValveSample> search(samples.begin(),
                                         samples.begin() + std::min(samples.size(), kSearchSamples));
-
-  // From the starting model and from starts at half and twice its natural frequency and other dead times,
-  // the best kept: a start far off settles in a local minimum where the natural frequency trades against the
-  // dead time (104 Hz and no dead time for a 164 Hz, 0.85 ms valve, its spool residual only 7 % above the
-  // sensor's noise).
-  double best_cost = std::numeric_limits<double>::infinity();
   double best[kParameters] = {0.0, 0.0, 0.0, 0.0};
-  for (const auto& [f_factor, dead_time_factor] :
-       {std::pair<double, double>{1.0, 1.0}, {0.5, 1.0}, {2.0, 1.0}, {1.0, 0.4}, {2.0, 0.4}, {0.5, 2.0}}) {
-    double v[kParameters] = {std::log(std::clamp(start.natural_frequency * f_factor, 5.0, 2000.0)),
-                             std::log(std::clamp(start.damping, 0.1, 3.0)), start.gain,
-                             std::clamp(start.dead_time * dead_time_factor * 1e3, 0.0, 20.0)};
-    if (!std::isfinite(v[2]) || v[2] == 0.0) v[2] = 0.1;
-    const double cost = solveOutputError<ceres::FORWARD>(search, max_gap, 20, v);
-    if (cost < best_cost) {
-      best_cost = cost;
-      std::copy(v, v + kParameters, best);
-    }
-  }
+  bestStart(search, start, max_gap, best);
   if (samples.size() > search.size()) solveOutputError<ceres::CENTRAL>(samples, max_gap, 10, best);
   fit.parameters = fromVector(best);
   fit.parameters.max_spool_velocity = start.max_spool_velocity;

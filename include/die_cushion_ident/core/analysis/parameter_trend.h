@@ -63,6 +63,11 @@ class SelfStartingCusum {
 
  private:
   void restartFrom(std::size_t first);
+  /// The newest recording as a standard normal score against the in-control ones before it (`baseline`
+  /// of them); NaN where their scatter is 0.
+  double normalScore(const TrendPoint& point, std::size_t baseline) const;
+  /// The alarm raised by the recording at `index`, dated and shaped.
+  ParameterChange describeAlarm(std::size_t index, bool rise) const;
 
   SequentialDetectionOptions options_;
   double threshold_, reference_;

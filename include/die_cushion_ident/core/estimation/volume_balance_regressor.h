@@ -51,6 +51,21 @@ class VolumeBalanceRegressor {
   bool pushIntegral(const GridSample& s, bool usable, double drain_weight, bool split_at_kink,
                     const ParameterVector& point, RegressionRow* row);
   bool pushDerivative(const GridSample& s, bool usable, const ParameterVector& point, RegressionRow* row);
+  /// The integral form's sample: held among the pending ones until its neighbours are in.
+  bool pushPending(const GridSample& sample, bool usable, const ParameterVector& point, RegressionRow* row);
+  /// The valve model's spool for the sample's command (0 where the model does not judge the side).
+  double modelledSpool(const GridSample& sample);
+  /// How much of the middle pending sample's flow leaves through the drain port (1: all, 0: none, between:
+  /// near the kink); `split_at_kink`: its spool crossed 0 within its interval.
+  double middleDrainWeight(bool* split_at_kink);
+  struct Node;
+  /// The node's columns a (capacitance) and g (flow) at its sample.
+  void nodeColumns(Node& node, double drain_weight, bool split_at_kink, const ParameterVector& point);
+  /// The increment between nodes 1 and 2 (0 and 3 the outer quadrature points): [z, phi_0 .. phi_{n-1},
+  /// unusable].
+  void incrementBetweenNodes(double* channels);
+  struct Pending;
+  Pending& pending(int k) { return pending_[(pending_head_ + k) % (2 * side_neighbours_ + 1)]; }
   const HydraulicModel& model_;
   RegressionForm form_;
   double dt_;

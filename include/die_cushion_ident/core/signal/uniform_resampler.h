@@ -93,6 +93,8 @@ struct StreamHealth {
 /// again) it restarts the grid, forwards (a pause in the recording) the grid jumps; either way the next
 /// emitted sample carries `discontinuity`. Values outside `plausible` are rejected like non-finite ones.
 class UniformResampler {
+  static constexpr double kNaNValue = std::numeric_limits<double>::quiet_NaN();
+
  public:
   struct Config {
     double sample_period = 0.002;  ///< [s]
@@ -133,6 +135,17 @@ class UniformResampler {
   /// True once the held messages confirm a jump of the time base.
   bool jumpConfirmed() const;
   void emitReady(std::vector<GridSample>* out, bool flushing);
+  /// Starts the grid at the first point every stream covers (or a silent one is overdue); false: not yet.
+  bool startGrid(bool flushing);
+  /// Each stream's interpolated (first, second) at a grid point, and the valve model's spool.
+  struct GridValues {
+    double first[kInputStreamCount] = {kNaNValue, kNaNValue, kNaNValue};
+    double second[kInputStreamCount] = {kNaNValue, kNaNValue, kNaNValue};
+    double modelled_spool = kNaNValue;
+  };
+  GridSample sampleAt(double t, const GridValues& values) const;
+  /// Drops the messages no grid point from t_next on needs.
+  void dropMessagesBefore(double t_next);
   bool interpolate(int stream, double t, double* first, double* second, double* third = nullptr) const;
   /// Over [from, to], from the valve messages: the mean of the command (each held from its stamp to the next
   /// message's), and of the drain part max(y, 0) and the supply part min(y, 0) of the line through the

@@ -66,6 +66,39 @@ double CustomFlowEffect::evaluate(const HydraulicSignals& signals, double dp) co
   return std::isfinite(value) ? value : 0.0;
 }
 
+namespace {
+
+std::string describeSignals(const HydraulicSignals& s) {
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "p = %g Pa, dp = %g Pa/s, x = %g m, v = %g m/s, u = %g V, y = %g, V = %g m^3", s.p, s.dp, s.x,
+                s.v, s.u, s.y, s.V);
+  return text;
+}
+
+}  // namespace
+
+double CustomFlowEffect::probedValue(const HydraulicSignals& s) const {
+  constexpr double kAbsurd = 1e30;  // p^4 at 300 bar is 8e29: anything larger is no flow term
+  bound_ = s;
+  double value = 0.0;
+  try {
+    value = parser_->Eval();
+  } catch (const mu::Parser::exception_type& e) {
+    throw std::invalid_argument("custom effect '" + name_ + "': '" + expression_ +
+                                "' cannot be evaluated at " + describeSignals(s) + ": " + e.GetMsg());
+  }
+  if (!std::isfinite(value) || std::abs(value) > kAbsurd) {
+    char number[32];
+    std::snprintf(number, sizeof(number), "%g", value);
+    throw std::invalid_argument(
+        "custom effect '" + name_ + "': '" + expression_ + "' evaluates to " + number + " at " +
+        describeSignals(s) + " (inside the operating range): a flow term must stay finite and below 1e30 " +
+        "there; guard it, e.g. max(p, 1e5) in a denominator");
+  }
+  return value;
+}
+
 void CustomFlowEffect::probe() {
   // Evaluate over the signals' plausible operating range: a term that is non-finite or absurd there
   // would wreck the estimator, one that is always zero cannot be identified. Both are refused now, with
@@ -78,16 +111,8 @@ void CustomFlowEffect::probe() {
   static const double kY[] = {-0.5, 0.0, 0.5};
   static const double kVolume[] = {0.005, 0.02};
   static const double kT[] = {0.0, 100.0};
-  constexpr double kAbsurd = 1e30;  // p^4 at 300 bar is 8e29: anything larger is no flow term
   bool varies = false, uses_dp = false, affine = true;
   double first = std::numeric_limits<double>::quiet_NaN();
-  const auto where = [](const HydraulicSignals& s) {
-    char text[160];
-    std::snprintf(text, sizeof(text), "p = %g Pa, dp = %g Pa/s, x = %g m, v = %g m/s, u = %g V, y = %g, V = %g m^3",
-                  s.p, s.dp, s.x, s.v, s.u, s.y, s.V);
-    return std::string(text);
-  };
-  HydraulicSignals s;
   for (double p : kP)
     for (double x : kX)
       for (double v : kV)
@@ -97,26 +122,9 @@ void CustomFlowEffect::probe() {
               for (double t : kT) {
                 double at[5];
                 for (int k = 0; k < 5; ++k) {
-                  s = {t, p, kProbeRates[k], x, v, u, y, volume};
-                  bound_ = s;
-                  double value = 0.0;
-                  try {
-                    value = parser_->Eval();
-                  } catch (const mu::Parser::exception_type& e) {
-                    throw std::invalid_argument("custom effect '" + name_ + "': '" + expression_ +
-                                                "' cannot be evaluated at " + where(s) + ": " + e.GetMsg());
-                  }
-                  if (!std::isfinite(value) || std::abs(value) > kAbsurd) {
-                    char number[32];
-                    std::snprintf(number, sizeof(number), "%g", value);
-                    throw std::invalid_argument(
-                        "custom effect '" + name_ + "': '" + expression_ + "' evaluates to " + number + " at " +
-                        where(s) + " (inside the operating range): a flow term must stay finite and below 1e30 " +
-                        "there; guard it, e.g. max(p, 1e5) in a denominator");
-                  }
-                  if (std::isnan(first)) first = value;
-                  varies |= value != first;
-                  at[k] = value;
+                  at[k] = probedValue({t, p, kProbeRates[k], x, v, u, y, volume});
+                  if (std::isnan(first)) first = at[k];
+                  varies |= at[k] != first;
                 }
                 const double scale = std::abs(at[0]) + std::abs(at[2]) + std::abs(at[4]) + 1e-300;
                 const double slope = (at[1] - at[0]) / kRateUnit;

@@ -40,6 +40,8 @@ class CustomFlowEffect final : public Effect {
 
  private:
   void probe();
+  /// The expression at one probe point; throws where it cannot be evaluated or is not finite there.
+  double probedValue(const HydraulicSignals& signals) const;
   double evaluate(const HydraulicSignals& signals, double dp) const;
 
   bool dp_affine_ = false;     // expr = f + dp * c with c not identically 0
