@@ -44,5 +44,15 @@ inline double summaryParameter(const YAML::Node& summary, const std::string& nam
   return NAN;
 }
 
+/// The first of summary.yaml's warnings whose code (warning_codes, same order) is `code`; "" where none is.
+inline std::string warningWithCode(const YAML::Node& summary, const std::string& code) {
+  const YAML::Node warnings = summary["warnings"], codes = summary["warning_codes"];
+  EXPECT_EQ(warnings.size(), codes.size()) << "a code for every warning";
+  for (std::size_t i = 0; i < warnings.size() && i < codes.size(); ++i) {
+    if (codes[i].as<std::string>() == code) return warnings[i].as<std::string>();
+  }
+  return "";
+}
+
 }  // namespace testing
 }  // namespace die_cushion_ident

@@ -92,7 +92,9 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
   std::string text = emitSummary(input, config, result, outputs);
   if (replaceNonFinite(&text) > 0) {
     OfflineResult flagged = result;
-    flagged.warnings.push_back("some figures could not be computed (not finite) and are written as null (~)");
+    flagged.warnings.push_back(
+        {WarningCode::kNotFinite,
+         "some figures could not be computed (not finite) and are written as null (~)"});
     text = emitSummary(input, config, flagged, outputs);
     replaceNonFinite(&text);
   }
@@ -420,6 +422,16 @@ void emitOnset(YAML::Emitter& out, const EffectOnset& o) {
   out << YAML::EndMap;
 }
 
+// The warnings in words (the contract's list) and, in the same order, their codes for tools to match by.
+void emitWarnings(YAML::Emitter& out, const std::vector<AnalysisWarning>& warnings) {
+  out << YAML::Key << "warnings" << YAML::Value << YAML::BeginSeq;
+  for (const AnalysisWarning& w : warnings) out << w.text;
+  out << YAML::EndSeq;
+  out << YAML::Key << "warning_codes" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (const AnalysisWarning& w : warnings) out << warningCodeName(w.code);
+  out << YAML::EndSeq;
+}
+
 std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& config,
                         const OfflineResult& r, const std::vector<std::string>& outputs) {
   YAML::Emitter out;
@@ -437,7 +449,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   if (r.onset) emitOnset(out, *r.onset);
   // The files this run wrote (each complete: written under a temporary name, renamed when whole).
   out << YAML::Key << "outputs" << YAML::Value << YAML::Flow << outputs;
-  out << YAML::Key << "warnings" << YAML::Value << r.warnings;
+  emitWarnings(out, r.warnings);
   out << YAML::EndMap;
   return out.c_str();
 }

@@ -318,7 +318,7 @@ struct Configuration {
   std::vector<std::string> keys;  // given in the file
 };
 
-Configuration loadConfiguration(const Options& options, std::vector<std::string>* warnings) {
+Configuration loadConfiguration(const Options& options, std::vector<AnalysisWarning>* warnings) {
   Configuration c;
   if (!options.config.empty()) {
     const auto problems = loadAnalysisConfig(options.config, &c.config, &c.topics, &c.keys);
@@ -332,8 +332,9 @@ Configuration loadConfiguration(const Options& options, std::vector<std::string>
   for (const auto& custom : options.custom_effects) c.config.custom_effects.push_back(custom);
   for (const char* key : {"piston_area", "stroke_length", "supply_pressure"}) {
     if (std::find(c.keys.begin(), c.keys.end(), key) == c.keys.end()) {
-      warnings->push_back(std::string("geometry key '") + key +
-                          "' not configured: the default of doc/configuration.md is used");
+      warnings->push_back({WarningCode::kGeometryDefault,
+                           std::string("geometry key '") + key +
+                               "' not configured: the default of doc/configuration.md is used"});
     }
   }
   const auto problems = c.config.validate();
@@ -358,27 +359,43 @@ void failIfNothingToAnalyse(const BagPass& pass, const std::string (&names)[kInp
   }
 }
 
-// What the reading skipped, lost or could not read, in words; true where the result is partial.
-bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStreamCount],
-                     std::vector<std::string>* warnings, const std::function<void(const std::string&)>& log) {
+// The messages the reading skipped, in words.
+void skippedMessages(const BagPass& pass, const std::string (&names)[kInputStreamCount],
+                     std::vector<AnalysisWarning>* warnings) {
   for (int s = 0; s < kInputStreamCount; ++s) {
-    if (!pass.present.count(names[s])) warnings->push_back("topic " + names[s] + " is not in the bag");
+    if (!pass.present.count(names[s]))
+      warnings->push_back({WarningCode::kTopicMissing, "topic " + names[s] + " is not in the bag"});
   }
   if (pass.mismatched > 0) {
-    warnings->push_back(std::to_string(pass.mismatched) +
-                        " messages had a different definition (md5sum) than this package's and were skipped");
+    warnings->push_back(
+        {WarningCode::kMessagesRejected,
+         std::to_string(pass.mismatched) +
+             " messages had a different definition (md5sum) than this package's and were skipped"});
   }
   if (pass.damaged > 0) {
-    warnings->push_back(std::to_string(pass.damaged) + " messages were damaged (their bytes do not decode) and skipped");
+    warnings->push_back(
+        {WarningCode::kMessagesDamaged,
+         std::to_string(pass.damaged) + " messages were damaged (their bytes do not decode) and skipped"});
   }
   if (pass.joint_missing > 0) {
-    warnings->push_back(std::to_string(pass.joint_missing) + " position messages skipped: " + pass.joint_problem);
+    warnings->push_back(
+        {WarningCode::kJointMissing,
+         std::to_string(pass.joint_missing) + " position messages skipped: " + pass.joint_problem});
   }
   if (pass.without_position > 0) {
-    warnings->push_back(std::to_string(pass.without_position) +
-                        " position messages without a position for the cushion's joint were skipped");
+    warnings->push_back({WarningCode::kMessagesRejected,
+                         std::to_string(pass.without_position) +
+                             " position messages without a position for the cushion's joint were skipped"});
   }
-  if (!pass.joint_ambiguity.empty()) warnings->push_back(pass.joint_ambiguity);
+  if (!pass.joint_ambiguity.empty())
+    warnings->push_back({WarningCode::kJointAmbiguous, pass.joint_ambiguity});
+}
+
+// What the reading skipped, lost or could not read, in words; true where the result is partial.
+bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStreamCount],
+                     std::vector<AnalysisWarning>* warnings,
+                     const std::function<void(const std::string&)>& log) {
+  skippedMessages(pass, names, warnings);
   if (!pass.damage.empty()) {
     // Damage names where it is, so that the recording (or its copy) can be checked there.
     std::string where;
@@ -394,26 +411,29 @@ bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStrea
                                         : std::string("the messages")) +
              " were lost in the damaged parts; the reading went on at the next record that holds together";
     }
-    warnings->push_back("the bag is damaged (" + where + "): " + lost + ", and what was read is analysed");
-    log(warnings->back());
+    warnings->push_back({WarningCode::kBagDamaged,
+                         "the bag is damaged (" + where + "): " + lost + ", and what was read is analysed"});
+    log(warnings->back().text);
     return true;
   }
   if (pass.read_error.empty()) return false;
   bool partial = false;
   if (pass.cut_off && !pass.data_lost) {
     // Every message was read; only the index behind them is gone.
-    warnings->push_back("the bag lost its index (" + pass.read_error + "): every message was read from its chunks");
+    warnings->push_back({WarningCode::kBagDamaged, "the bag lost its index (" + pass.read_error +
+                                                       "): every message was read from its chunks"});
   } else {
     char share[64];
     std::snprintf(share, sizeof(share), "%.1f", 100.0 * pass.bytes_read / std::max<std::uint64_t>(pass.file_size, 1));
-    warnings->push_back(pass.cut_off ? "the bag was cut off while recording (" + pass.read_error +
-                                           "): the analysis covers what was recorded before the cut"
-                                     : "the bag could not be read to the end (" + pass.read_error +
-                                           "): the analysis covers the first " + share +
-                                           " % of it, read before the damage");
+    warnings->push_back({WarningCode::kBagDamaged,
+                         pass.cut_off ? "the bag was cut off while recording (" + pass.read_error +
+                                            "): the analysis covers what was recorded before the cut"
+                                      : "the bag could not be read to the end (" + pass.read_error +
+                                            "): the analysis covers the first " + share +
+                                            " % of it, read before the damage"});
     partial = true;
   }
-  log(warnings->back());
+  log(warnings->back().text);
   return partial;
 }
 
@@ -436,7 +456,9 @@ void reportSettings(const std::optional<SettingsChoice>& choice, OfflineResult* 
   if (!choice) return;
   result->settings = choice;
   for (const auto& w : choice->warnings) result->warnings.push_back(w);
-  if (!choice->resolution_limit.empty()) result->warnings.push_back(choice->resolution_limit);
+  if (!choice->resolution_limit.empty()) {
+    result->warnings.push_back({WarningCode::kResolutionLimited, choice->resolution_limit});
+  }
   if (choice->valve_from_operation && result->valve_model_source == "configured") {
     result->valve_model_source = "operation";
   }
@@ -447,8 +469,9 @@ void reportClockOffsets(const std::optional<TopicDelayEstimate>& delays, bool ap
   if (!delays) return;
   result->delay_estimate = delays;
   if (!delays->valid) {
-    result->warnings.push_back("the clock offsets between the topics could not be estimated (" + delays->message +
-                               "): the stamps are used as recorded");
+    result->warnings.push_back(
+        {WarningCode::kClockOffset, "the clock offsets between the topics could not be estimated (" +
+                                        delays->message + "): the stamps are used as recorded"});
     return;
   }
   // Offsets the data cannot tell from 0 are reported but not corrected.
@@ -457,15 +480,18 @@ void reportClockOffsets(const std::optional<TopicDelayEstimate>& delays, bool ap
     if (!(std::abs(delays->delays[s]) > kLargeTopicDelay)) continue;
     const std::string topic = std::string("the ") + inputStreamName(static_cast<InputStream>(s));
     if (applied) {
-      result->warnings.push_back(topic + " topic's stamps are " + milliseconds(delays->delays[s]) +
-                                 " off the pressure's (estimated from the data and corrected): its "
-                                 "driver stamps on receipt or by another clock; set topic_delays to "
-                                 "fix the value, or stamp at the measurement");
+      result->warnings.push_back(
+          {WarningCode::kClockOffset, topic + " topic's stamps are " + milliseconds(delays->delays[s]) +
+                                          " off the pressure's (estimated from the data and corrected): its "
+                                          "driver stamps on receipt or by another clock; set topic_delays to "
+                                          "fix the value, or stamp at the measurement"});
     } else {
-      result->warnings.push_back(topic + " topic's stamps look " + milliseconds(delays->delays[s]) +
-                                 " off the pressure's, but the recording cannot tell that from none (+-" +
-                                 milliseconds(delays->resolution[s]).substr(1) +
-                                 "): not corrected; set topic_delays if you know the offset");
+      result->warnings.push_back(
+          {WarningCode::kClockOffset,
+           topic + " topic's stamps look " + milliseconds(delays->delays[s]) +
+               " off the pressure's, but the recording cannot tell that from none (+-" +
+               milliseconds(delays->resolution[s]).substr(1) +
+               "): not corrected; set topic_delays if you know the offset"});
     }
   }
 }
@@ -473,7 +499,7 @@ void reportClockOffsets(const std::optional<TopicDelayEstimate>& delays, bool ap
 // The end of the log: warnings, conclusion and speed; the exit code (5 for a partial result).
 int finishLog(const OfflineResult& result, bool partial, double seconds, const Options& options,
               const std::function<void(const std::string&)>& log) {
-  for (const auto& w : result.warnings) log("warning: " + w);
+  for (const auto& w : result.warnings) log("warning: " + w.text);
   log("simulation error " + std::to_string(result.assessment.simulation_error_rms * 1e-5) + " bar rms; " +
       result.ranking.conclusion);
   if (result.valve) log("valve: " + result.valve->fit.message);
@@ -491,7 +517,7 @@ int finishLog(const OfflineResult& result, bool partial, double seconds, const O
 
 // What the reading found, for the summary.
 struct ReadingFindings {
-  std::vector<std::string> warnings;
+  std::vector<AnalysisWarning> warnings;
   std::optional<SettingsChoice> settings;
   std::optional<TopicDelayEstimate> delays;
   bool delays_applied = false;
@@ -537,7 +563,7 @@ int run(int argc, char** argv) {
   const std::function<void(const std::string&)> log = [&](const std::string& line) {
     if (!options.quiet) std::cerr << "analyze_bag: " << line << "\n";
   };
-  std::vector<std::string> warnings;
+  std::vector<AnalysisWarning> warnings;
   Configuration configuration = loadConfiguration(options, &warnings);
   IdentificationConfig& config = configuration.config;
   const InputTopics& topics = configuration.topics;

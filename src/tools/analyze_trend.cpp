@@ -26,10 +26,11 @@
 
 #include "argument_parser.h"
 #include "command_line.h"
-#include "die_cushion_ident/core/util/formatted.h"
-#include "die_cushion_ident/core/util/parallel_for.h"
+#include "die_cushion_ident/core/analysis/analysis_warning.h"
 #include "die_cushion_ident/core/analysis/parameter_trend.h"
 #include "die_cushion_ident/core/analysis/verdict.h"
+#include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/util/parallel_for.h"
 
 namespace fs = std::filesystem;
 
@@ -178,10 +179,14 @@ void analyse(BagJob& job, const Options& o, const std::string& analyze_bag, int 
     const auto last_line = text.rfind('\n');
     std::string why = last_line == std::string::npos ? text : text.substr(last_line + 1);
     try {  // a partial result (exit 5) says in its summary what could not run, after the setup warnings
+      // The setup's warnings (geometry left at its defaults) are not why it failed: matched by their code.
       std::vector<std::string> said;
-      for (const auto& w : YAML::LoadFile(job.directory + "/summary.yaml")["warnings"]) {
-        const std::string text = w.as<std::string>();
-        if (text.rfind("geometry key", 0) != 0) said.push_back(text);
+      const YAML::Node summary = YAML::LoadFile(job.directory + "/summary.yaml");
+      const YAML::Node warnings = summary["warnings"], codes = summary["warning_codes"];
+      for (std::size_t i = 0; i < warnings.size(); ++i) {
+        const bool setup =
+            i < codes.size() && codes[i].as<std::string>() == warningCodeName(WarningCode::kGeometryDefault);
+        if (!setup) said.push_back(warnings[i].as<std::string>());
       }
       if (!said.empty()) why = said.front() + (said.size() > 1 ? " (and " + std::to_string(said.size() - 1) + " more warnings)" : "");
     } catch (const std::exception&) {

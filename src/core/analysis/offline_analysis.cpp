@@ -111,7 +111,7 @@ void EstimateSeries::add(const HydraulicEstimate& e) {
 // 250 Hz gave 112 Hz and damping 0.61 under the default, 78.5 Hz and 0.69 with the true 1 ms hold: both
 // fits go to the user, with the key that decides between them.
 bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep,
-                                                      std::vector<std::string>* warnings) const {
+                                                      std::vector<AnalysisWarning>* warnings) const {
   if (!sweep.fit.success || sweep.points.empty() || !(sweep.message_interval > 0.0)) return false;
   double highest = 0.0;
   for (const auto& p : sweep.points) highest = std::max(highest, p.frequency);
@@ -137,7 +137,7 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
                       "which the recording cannot tell; set valve_command_hold to the amplifier's update period",
                       held.natural_frequency, held.damping);
   }
-  warnings->push_back(text);
+  warnings->push_back({WarningCode::kValveModel, text});
   return true;
 }
 
@@ -229,8 +229,8 @@ void OfflineAnalysis::analyzeValveSweep(OfflineResult* result, const std::functi
 namespace {
 
 // A part of the analysis that could not run: why, in words and with what to do; the result is partial.
-void cannotRun(OfflineResult& r, const std::string& why) {
-  r.warnings.push_back(why);
+void cannotRun(OfflineResult& r, const std::string& why, WarningCode code = WarningCode::kNotRun) {
+  r.warnings.push_back({code, why});
   r.partial = true;
 }
 
@@ -247,14 +247,14 @@ void warnRejectedMessages(const IdentificationConfig& config, OfflineResult& r) 
                     "non-finite ones (see the *_plausible_* configuration keys)",
                     static_cast<unsigned long long>(h.implausible), name, bounds[s].min_first, bounds[s].max_first,
                     s == 0 ? "" : s == 1 ? " (or |velocity| above max_plausible_velocity)" : " (or |spool| > 1.5)");
-      r.warnings.push_back(text);
+      r.warnings.push_back({WarningCode::kMessagesRejected, text});
     }
     if (h.wild_stamps > 0) {
       char text[256];
       std::snprintf(text, sizeof(text),
                     "%llu %s messages had stamps far off the other topics' (the last %+.4g s) and were rejected",
                     static_cast<unsigned long long>(h.wild_stamps), name, h.last_wild_offset);
-      r.warnings.push_back(text);
+      r.warnings.push_back({WarningCode::kMessagesRejected, text});
     }
   }
 }
@@ -351,24 +351,30 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
   }
   std::vector<std::string> uncertain;
   for (const auto& problem : implausibleParameters(model, r.model, 3.0, &uncertain)) {
-    cannotRun(r, "implausible estimate: " + problem +
-                     "; the model does not describe this recording (wrong joint, units or topic, or a large "
-                     "clock offset between the topics); the comparison below is not a valid model check");
+    cannotRun(r,
+              "implausible estimate: " + problem +
+                  "; the model does not describe this recording (wrong joint, units or topic, or a large "
+                  "clock offset between the topics); the comparison below is not a valid model check",
+              WarningCode::kImplausibleParameter);
   }
   for (const auto& doubt : uncertain) {
-    r.warnings.push_back(doubt + ", but within 3 standard deviations of it: the recording does not pin "
-                         "it down (more varied strokes would), or an effect the model lacks pulls it");
+    r.warnings.push_back({WarningCode::kUncertainParameter,
+                          doubt +
+                              ", but within 3 standard deviations of it: the recording does not pin "
+                              "it down (more varied strokes would), or an effect the model lacks pulls it"});
   }
   tell("fitting each group of cycles alone (does a parameter change over the recording?)");
   const CycleGroupFits cycle_groups(grid_, r.strokes, config_, 10, jobs_);
   for (const auto& spread : parametersThatVaryOverTheRecording(cycle_groups, r.model)) {
-    r.warnings.push_back(spread);
+    r.warnings.push_back({WarningCode::kChangingParameter, spread});
   }
   tell("looking for an effect that starts within the recording");
   r.onset = findEffectOnset(grid_, r.strokes, config_, kVariationSignificance, jobs_);
   if (r.onset) {
-    r.warnings.push_back(r.onset->explanation + ". The whole recording's fit averages over the change: " +
-                         "analyse the cycles from it on alone, or with " + r.onset->effect + " in the model");
+    r.warnings.push_back({WarningCode::kChangeWithinRecording,
+                          r.onset->explanation + ". The whole recording's fit averages over the change: " +
+                              "analyse the cycles from it on alone, or with " + r.onset->effect +
+                              " in the model"});
   }
 }
 
@@ -416,7 +422,7 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
   };
   OfflineResult& r = *result;
   const auto cannot = [&r](const std::string& why) {
-    r.warnings.push_back(why);
+    r.warnings.push_back({WarningCode::kNotRun, why});
     r.partial = true;
   };
   if (r.hydraulics && r.model.updates > 0) {
@@ -452,7 +458,7 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
                     "from the step test at %.3f s): the identification cannot resolve the pressure build-up; "
                     "set sample_period to at most %.4g s",
                     config_.resampler.sample_period, step.t63, step.start, step.recommendedMaxSamplingTime());
-      r.warnings.push_back(text);
+      r.warnings.push_back({WarningCode::kSamplingTooCoarse, text});
     }
   }
 }

@@ -382,10 +382,12 @@ void adoptValveFit(ValveOperationFit fit, bool valve_configured, SettingsChoice&
   choice.valve_from_operation = true;
   if (valve_configured && choice.valve->start_residual_rms > 1.5 * choice.valve->noise_sigma) {
     choice.warnings.push_back(
-        "the configured valve model does not follow the measured spool (" +
-        formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
-                  choice.valve->noise_sigma) +
-        "): the analysis uses the one fitted to the recording's operation instead (" + choice.valve->message + ")");
+        {WarningCode::kValveModel,
+         "the configured valve model does not follow the measured spool (" +
+             formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
+                       choice.valve->noise_sigma) +
+             "): the analysis uses the one fitted to the recording's operation instead (" +
+             choice.valve->message + ")"});
   }
 }
 
@@ -599,12 +601,14 @@ void keepConfigured(const IdentificationConfig& configured_config, const std::se
         if (std::abs(candidate.sample_period - setting.value) > 1e-12) continue;
         const double change = candidate.change_to_finer;
         if (std::isfinite(change) && change > allowed_change) {
-          choice.warnings.push_back(formatted("sample_period %.3g ms (configured) leaves a resolution error on this "
-                                              "recording: the free run changes by %.2g bar when it halves (pressure "
-                                              "noise %.2g bar); the analysis would choose %.3g ms. An error of the "
-                                              "grid can look like a missing effect: remove the key to let the "
-                                              "analysis choose",
-                                              1e3 * setting.value, 1e-5 * change, 1e-5 * noise, 1e3 * chosen_period));
+          choice.warnings.push_back(
+              {WarningCode::kSettingBiased,
+               formatted("sample_period %.3g ms (configured) leaves a resolution error on this "
+                         "recording: the free run changes by %.2g bar when it halves (pressure "
+                         "noise %.2g bar); the analysis would choose %.3g ms. An error of the "
+                         "grid can look like a missing effect: remove the key to let the "
+                         "analysis choose",
+                         1e3 * setting.value, 1e-5 * change, 1e-5 * noise, 1e3 * chosen_period)});
         }
       }
     } else if (setting.key == "moving_average_width") {
@@ -648,10 +652,12 @@ void reconcile(double shortest_drawing, SettingsChoice& choice) {
   }
   if (shortest_drawing > 0.0 &&
       (c.moving_average_width + c.derivative_width - 1) * c.resampler.sample_period > shortest_drawing) {
-    choice.warnings.push_back(formatted("the filter windows (%.0f + %.0f samples of %.3g ms) are longer than the "
-                                        "shortest drawing phase (%.3g s): few rows lie wholly in it",
-                                        c.moving_average_width, c.derivative_width, 1e3 * c.resampler.sample_period,
-                                        shortest_drawing));
+    choice.warnings.push_back(
+        {WarningCode::kFiltersTooLong,
+         formatted("the filter windows (%.0f + %.0f samples of %.3g ms) are longer than the "
+                   "shortest drawing phase (%.3g s): few rows lie wholly in it",
+                   c.moving_average_width, c.derivative_width, 1e3 * c.resampler.sample_period,
+                   shortest_drawing)});
   }
 }
 
@@ -665,7 +671,8 @@ SettingsChoice SettingsFromRecording::choose() const {
   const RecordingSurvey& survey = choice.survey;
   const bool valve_configured = configured_.count("valve_natural_frequency") || configured_.count("valve_damping") ||
                                 configured_.count("valve_gain") || configured_.count("valve_dead_time");
-  if (!survey.spool_measured && !valve_configured) choice.warnings.push_back(unmodelledSpoolWarning(config_.valve));
+  if (!survey.spool_measured && !valve_configured)
+    choice.warnings.push_back({WarningCode::kValveModel, unmodelledSpoolWarning(config_.valve)});
   // The valve model from the operation, fitted on the other core while the clock offsets are searched
   // (they read the measured spool, not the model's).
   std::future<ValveOperationFit> valve_fit;
@@ -693,7 +700,6 @@ SettingsChoice SettingsFromRecording::choose() const {
     }
   }
   if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
-
   ResolutionStudy study(messages_, periods, jobs_, choice);
   const StudyOutcome outcome = study.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
   const IdentificationConfig chosen = atPeriod(choice.config, outcome.chosen_period, outcome.shortest_drawing);

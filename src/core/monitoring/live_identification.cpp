@@ -194,7 +194,7 @@ void LiveIdentification::adopt(const SettingsChoice& choice) {
   event(HealthLevel::kOk,
         "settings chosen from the recording: " + describe(resolutionOf(config_)) + extra +
             (changed ? ": identification restarted with them" : ": as running, nothing restarted"));
-  for (const std::string& warning : choice.warnings) event(HealthLevel::kWarn, warning);
+  for (const AnalysisWarning& warning : choice.warnings) event(HealthLevel::kWarn, warning.text);
   if (!choice.resolution_limit.empty()) event(HealthLevel::kWarn, choice.resolution_limit);
 }
 
@@ -292,7 +292,7 @@ HealthReport LiveIdentification::settingsHealth() const {
   if (!choice_->resolution_limit.empty()) {
     r.summary(HealthLevel::kWarn, choice_->resolution_limit);
   } else if (!choice_->warnings.empty()) {
-    r.summary(HealthLevel::kWarn, choice_->warnings.front());
+    r.summary(HealthLevel::kWarn, choice_->warnings.front().text);
   } else {
     r.summary(HealthLevel::kOk, "chosen from the recording: " + describe(running));
   }

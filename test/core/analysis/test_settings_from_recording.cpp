@@ -79,9 +79,10 @@ TEST(SettingsFromRecording, AConfiguredPeriodIsKeptAndJudged) {
   EXPECT_DOUBLE_EQ(setting(c, "sample_period").value, 0.002);
   EXPECT_TRUE(setting(c, "sample_period").configured);
   EXPECT_DOUBLE_EQ(c.config.resampler.sample_period, 0.002);
-  bool warned = false;
-  for (const auto& w : c.warnings) warned |= w.find("sample_period 2 ms (configured)") != std::string::npos;
-  EXPECT_TRUE(warned) << (c.warnings.empty() ? "" : c.warnings.front());
+  ASSERT_TRUE(hasWarning(c.warnings, WarningCode::kSettingBiased))
+      << (c.warnings.empty() ? "" : c.warnings.front().text);
+  EXPECT_NE(c.warnings.front().text.find("sample_period 2 ms (configured)"), std::string::npos)
+      << "names the key";
 }
 
 // The valve model is fitted to the survey's operation (the free run then takes its spool), and the clock

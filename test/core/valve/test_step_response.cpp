@@ -98,8 +98,7 @@ TEST(StepResponse, ASamplingTimeAboveATenthOfT63IsWarnedAbout) {
     for (const auto& m : messages) analysis.push(m.stream, m.sample);
     const OfflineResult result = analysis.finish();
     ASSERT_EQ(result.step_responses.size(), 1u) << "sample period " << period;
-    bool warned = false;
-    for (const auto& w : result.warnings) warned |= w.find("exceeds a tenth of the pressure's t63") != std::string::npos;
+    const bool warned = hasWarning(result.warnings, WarningCode::kSamplingTooCoarse);
     EXPECT_EQ(warned, period > result.step_responses.front().recommendedMaxSamplingTime()) << period;
   }
 }

@@ -73,7 +73,7 @@ struct OfflineResult {
   std::string topic_delays_source = "none";  ///< "configured", "estimated" or "none" (estimate not usable)
   std::optional<TopicDelayEstimate> delay_estimate;  ///< when estimated from the data
   std::uint64_t derived_velocity_samples = 0;       ///< grid samples whose velocity came from the position
-  std::vector<std::string> warnings;
+  std::vector<AnalysisWarning> warnings;
   /// The settings chosen from the recording (analyze_bag's survey), when they were.
   std::optional<SettingsChoice> settings;
   /// Part of the analysis could not run (no complete stroke, no usable sample, an implausible parameter):
@@ -170,7 +170,8 @@ class OfflineAnalysis {
   void analyzeValveSweep(OfflineResult* result, const std::function<void(const std::string&)>& tell);
   // Warns (and says so) where the valve messages are too slow for the recording to tell the amplifier's
   // command hold.
-  bool warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep, std::vector<std::string>* warnings) const;
+  bool warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep,
+                                       std::vector<AnalysisWarning>* warnings) const;
 
   std::uint64_t messages_ = 0;
   bool flushed_ = false;

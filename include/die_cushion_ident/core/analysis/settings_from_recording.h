@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "die_cushion_ident/core/analysis/analysis_warning.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/valve/valve_operation_fit.h"
@@ -74,7 +75,7 @@ struct SettingsChoice {
   /// what to record instead (resolution_remedy alone).
   std::string resolution_limit;
   std::string resolution_remedy;
-  std::vector<std::string> warnings;  ///< a configured value that biases the result on this recording
+  std::vector<AnalysisWarning> warnings;  ///< a configured value that biases the result on this recording
   double seconds_spent = 0.0;          ///< [s] wall time of choose()
 };
 
