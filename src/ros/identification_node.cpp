@@ -165,8 +165,7 @@ void IdentificationNode::addDiagnostics() {
     };
   };
   updater_.add("estimator", locked([this] {
-                 const HydraulicIdentifier& identifier = live_->pipeline().identifier();
-                 return estimatorHealth(identifier.model(), identifier.estimate());
+                 return estimatorHealth(live_->pipeline().identifier().model(), live_->estimate());
                }));
   updater_.add("model adequacy", locked([this] {
                  return adequacyHealth(live_->monitor(),

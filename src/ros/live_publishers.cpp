@@ -28,7 +28,7 @@ void LivePublishers::identificationStep(const LiveIdentification& live,
   const bool estimate = estimate_pub_.getNumSubscribers() > 0;
   const bool comparison = comparison_pub_.getNumSubscribers() > 0;
   if (!markers && !estimate && !comparison) return;  // the estimate costs allocations: only when wanted
-  const HydraulicEstimate e = identifier.estimate();
+  const HydraulicEstimate e = live.estimate();
   const ros::Time stamp(std::max(e.t, 0.0));
   if (estimate) {
     const ParameterVector values = e.values(), stds = e.standardDeviations();

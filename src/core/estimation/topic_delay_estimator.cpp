@@ -406,10 +406,10 @@ LineSearch searchShift(const Cost& evaluate, double range) {
 
 }  // namespace
 
-bool TopicDelayEstimate::distinguishable() const {
+bool TopicDelayEstimate::distinguishable(double sigmas) const {
   if (!valid) return false;
   for (int s = 1; s < kInputStreamCount; ++s) {
-    if (std::abs(delays[s]) > 2.0 * resolution[s]) return true;
+    if (std::abs(delays[s]) > sigmas * resolution[s]) return true;
   }
   return false;
 }

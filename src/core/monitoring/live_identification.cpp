@@ -13,6 +13,9 @@ namespace {
 
 using PushResult = UniformResampler::PushResult;
 
+// [s] the memory of the long-run mean the live estimate's scatter is taken around (EstimateScatter).
+constexpr double kScatterHorizon = 50.0;
+
 // The settings the survey chooses, as they are compared and applied: the effects, geometry and limits stay
 // the live configuration's (a model changed during the survey is kept).
 struct Resolution {
@@ -83,7 +86,12 @@ void LiveIdentification::rebuild() {
   pressure_noise_.followGrid(config_.resampler.sample_period);
   pipeline_->setGridCallback(
       [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });
-  pipeline_->setStepCallback([this](const HydraulicIdentifier& identifier) {
+  // The scatter over many press cycles: 50 s (19 cycles of the paper's press; with 20-40 s the coverage
+  // was the same), counted once the estimator has forgotten its start (1 / (1 - lambda) updates).
+  scatter_ = EstimateScatter(kScatterHorizon / config_.identification_period);
+  const double converged = 1.0 / std::max(1.0 - config_.forgetting_factor, 1e-6);
+  pipeline_->setStepCallback([this, converged](const HydraulicIdentifier& identifier) {
+    if (static_cast<double>(identifier.updates()) >= converged) scatter_.add(identifier.physicalParameters());
     if (on_step_) on_step_(identifier);
   });
   if (monitor_) {
@@ -93,6 +101,15 @@ void LiveIdentification::rebuild() {
         std::make_unique<LiveModelMonitor>(config_, pipeline_->identifier().model(), settings_.monitor);
   }
   ++generation_;
+}
+
+HydraulicEstimate LiveIdentification::estimate() const {
+  HydraulicEstimate e = pipeline_->identifier().estimate();
+  const ParameterVector scatter = scatter_.stds();
+  for (std::size_t i = 0; i < e.parameters.size() && static_cast<Eigen::Index>(i) < scatter.size(); ++i) {
+    e.parameters[i].std = std::max(e.parameters[i].std, scatter(static_cast<Eigen::Index>(i)));
+  }
+  return e;
 }
 
 void LiveIdentification::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier) {

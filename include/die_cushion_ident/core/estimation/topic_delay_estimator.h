@@ -25,8 +25,8 @@ struct TopicDelayEstimate {
   std::string message;  ///< why not valid, in words
   /// Whether any offset is large enough to be worth correcting (beyond a quarter of the sample period).
   bool significant(double sample_period) const;
-  /// Whether any offset differs from 0 by more than two standard uncertainties.
-  bool distinguishable() const;
+  /// Whether any offset differs from 0 by more than `sigmas` standard uncertainties.
+  bool distinguishable(double sigmas = 2.0) const;
 };
 
 /// Estimates constant clock offsets between the pressure, position and valve topics from the physics: the

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "die_cushion_ident/core/analysis/settings_from_recording.h"
+#include "die_cushion_ident/core/estimation/estimate_scatter.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/monitoring/health_report.h"
 #include "die_cushion_ident/core/monitoring/live_diagnostics.h"
@@ -76,6 +77,9 @@ class LiveIdentification {
 
   const IdentificationConfig& config() const { return config_; }
   const IdentificationPipeline& pipeline() const { return *pipeline_; }
+  /// The identifier's estimate with each std the larger of its own (the regression's Newey-West sandwich)
+  /// and the estimate's scatter over the last minute of press cycles (EstimateScatter): what is published.
+  HydraulicEstimate estimate() const;
   const LiveModelMonitor& monitor() const { return *monitor_; }
   /// The clock offsets' state for the timing diagnostic (joint fields left to the owner).
   TimingState timing() const;
@@ -106,6 +110,7 @@ class LiveIdentification {
   StepCallback on_step_;
   std::vector<LiveEvent> events_;
   MessageNoise pressure_noise_;  // the sensor's, for grids finer than its messages
+  EstimateScatter scatter_{1.0};  // of the converged live estimate, over kScatterHorizon
 
   std::unique_ptr<SettingsFromRecording> survey_;  // while messages are kept
   std::future<SettingsChoice> study_;              // while the study runs
