@@ -37,10 +37,8 @@ std::string binary(std::uint32_t v) {
   return s;
 }
 
-}  // namespace
-
-void runBagCase(const std::uint8_t* data, std::size_t size, const std::function<void(const std::string&)>& fail) {
-  // Records built from the bytes: each byte picks what comes next, the following ones its contents.
+// A bag file built from the bytes: each byte picks the next record, the following ones its contents.
+std::string bagFromBytes(const std::uint8_t* data, std::size_t size) {
   std::string bag = "#ROSBAG V2.0\n";
   static const char* const kTopics[] = {"/die_cushion/pressure", "/die_cushion/position", "/die_cushion/valve"};
   static const char* const kTypes[] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
@@ -91,11 +89,11 @@ void runBagCase(const std::uint8_t* data, std::size_t size, const std::function<
         break;
     }
   }
-  char path[] = "/tmp/die_cushion_ident_bag_fuzz_XXXXXX";
-  const int fd = mkstemp(path);
-  if (fd < 0) return;
-  close(fd);
-  std::ofstream(path, std::ios::binary) << bag;
+  return bag;
+}
+
+// The bag read as analyze_bag reads it, every message decoded as each input type.
+void readHostileBag(const std::string& path, const std::function<void(const std::string&)>& fail) {
   try {
     BagStreamReader reader(path);
     std::vector<std::string> names;
@@ -113,6 +111,19 @@ void runBagCase(const std::uint8_t* data, std::size_t size, const std::function<
   } catch (const std::exception& e) {
     fail(std::string("an exception escaped BagStreamReader: ") + e.what());
   }
+}
+
+}  // namespace
+
+void runBagCase(const std::uint8_t* data, std::size_t size,
+                const std::function<void(const std::string&)>& fail) {
+  const std::string bag = bagFromBytes(data, size);
+  char path[] = "/tmp/die_cushion_ident_bag_fuzz_XXXXXX";
+  const int fd = mkstemp(path);
+  if (fd < 0) return;
+  close(fd);
+  std::ofstream(path, std::ios::binary) << bag;
+  readHostileBag(path, fail);
   std::remove(path);
 }
 

@@ -80,6 +80,62 @@ IdentificationConfig configFrom(Bytes& in) {
   return c;
 }
 
+// The next stamp of a stream whose newest is `last`: 1 ms on, or (as `op` says) 0, a duplicate, a step
+// back, a gap or jump, NaN.
+double hostileStamp(Bytes& in, std::uint8_t op, double last) {
+  switch ((op >> 2) % 8) {
+    case 1:
+      return 0.0;
+    case 2:
+      return last;  // duplicate
+    case 3:
+      return last - in.number(0.0, 5.0);  // back
+    case 4:
+      return last + in.number(0.0, 5.0);  // gap or jump
+    case 5:
+      return std::numeric_limits<double>::quiet_NaN();
+    default:
+      return last + 0.001;
+  }
+}
+
+// A plausible press signal of stream `s` at `stamp`, with hostile values from the bytes.
+StreamSample pressSample(Bytes& in, int s, std::uint8_t op, double stamp) {
+  const double phase = std::fmod(std::isfinite(stamp) ? stamp : 0.0, 2.6);
+  StreamSample sample;
+  sample.stamp = stamp;
+  switch (s) {
+    case 0:
+      sample.first = in.number(0.0, 200e5) * 0.1 + 100e5 * std::sin(phase);
+      sample.second = NAN;
+      break;
+    case 1:
+      sample.first = 0.1 + 0.1 * std::sin(phase);
+      sample.second = (op & 0x20) ? NAN : in.number(-0.3, 0.3);
+      break;
+    default:
+      sample.first = in.number(-10.0, 10.0);
+      sample.second = (op & 0x20) ? NAN : in.number(-1.0, 1.0);
+      break;
+  }
+  return sample;
+}
+
+// Whatever came in: finite estimates, a verdict with an explanation for every candidate.
+void checkResults(IdentificationPipeline& pipeline, OfflineAnalysis& offline,
+                  const std::function<void(const std::string&)>& fail) {
+  pipeline.flush();
+  if (!finite(pipeline.identifier().estimate())) fail("a non-finite online estimate");
+  const OfflineResult result = offline.finish();
+  if (result.hydraulics && result.model.updates > 0 && !finite(result.model))
+    fail("a non-finite offline fit");
+  if (!std::isfinite(result.assessment.simulation_error_rms)) fail("a non-finite simulation error");
+  for (const auto& c : result.ranking.candidates) {
+    if (std::string(verdictName(c.verdict)) == "?") fail("bad verdict");
+    if (c.explanation.empty()) fail("a verdict without an explanation");
+  }
+}
+
 // A plausible press signal with hostile disturbances, in stamp order with deliberate exceptions.
 void feedMessages(Bytes& in, const IdentificationConfig& config,
                   const std::function<void(const std::string&)>& fail) {
@@ -102,62 +158,17 @@ void feedMessages(Bytes& in, const IdentificationConfig& config,
     if (s == silent && (op & 0x40)) continue;
     const int burst = (op & 0x80) ? 1 + in.byte() % 16 : 1;
     for (int b = 0; b < burst; ++b) {
-      double stamp = t[s] + 0.001;
-      switch ((op >> 2) % 8) {
-        case 1:
-          stamp = 0.0;
-          break;
-        case 2:
-          stamp = t[s];
-          break;  // duplicate
-        case 3:
-          stamp = t[s] - in.number(0.0, 5.0);
-          break;  // back
-        case 4:
-          stamp = t[s] + in.number(0.0, 5.0);
-          break;  // gap or jump
-        case 5:
-          stamp = std::numeric_limits<double>::quiet_NaN();
-          break;
-        default:
-          break;
-      }
-      const double phase = std::fmod(std::isfinite(stamp) ? stamp : 0.0, 2.6);
-      StreamSample sample;
-      sample.stamp = stamp;
-      switch (s) {
-        case 0:
-          sample.first = in.number(0.0, 200e5) * 0.1 + 100e5 * std::sin(phase);
-          sample.second = NAN;
-          break;
-        case 1:
-          sample.first = 0.1 + 0.1 * std::sin(phase);
-          sample.second = (op & 0x20) ? NAN : in.number(-0.3, 0.3);
-          break;
-        default:
-          sample.first = in.number(-10.0, 10.0);
-          sample.second = (op & 0x20) ? NAN : in.number(-1.0, 1.0);
-          break;
-      }
+      const double stamp = hostileStamp(in, op, t[s]);
+      const StreamSample sample = pressSample(in, s, op, stamp);
       pipeline->push(static_cast<InputStream>(s), sample);
       offline->push(static_cast<InputStream>(s), sample);
       if (std::isfinite(stamp) && stamp > t[s]) t[s] = stamp;
     }
   }
-  pipeline->flush();
-  if (!finite(pipeline->identifier().estimate())) fail("a non-finite online estimate");
-  const OfflineResult result = offline->finish();
-  if (result.hydraulics && result.model.updates > 0 && !finite(result.model))
-    fail("a non-finite offline fit");
-  if (!std::isfinite(result.assessment.simulation_error_rms)) fail("a non-finite simulation error");
-  for (const auto& c : result.ranking.candidates) {
-    if (std::string(verdictName(c.verdict)) == "?")
-      fail("bad verdict");
-    if (c.explanation.empty()) fail("a verdict without an explanation");
-  }
+  checkResults(*pipeline, *offline, fail);
 }
 
-void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fail) {
+SweepLimits hostileLimits(Bytes& in) {
   SweepLimits limits;
   const std::uint8_t tweaks = in.byte();
   if (tweaks & 1) limits.max_amplitude = in.number(0.1, 5.0);
@@ -166,13 +177,10 @@ void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fai
   if (tweaks & 8) limits.command_period = in.number(1e-4, 0.01);
   if (tweaks & 16) limits.max_pressure = in.number(1e5, 200e5);
   if (tweaks & 32) limits.signal_timeout = in.number(0.001, 1.0);
-  std::unique_ptr<ValveSweep> sweep;
-  try {
-    sweep = std::make_unique<ValveSweep>(limits);
-  } catch (const std::invalid_argument& e) {
-    if (limits.validate().empty()) fail(std::string("valid sweep limits refused: ") + e.what());
-    return;
-  }
+  return limits;
+}
+
+SweepRequest hostileRequest(Bytes& in) {
   SweepRequest request;
   if (in.byte() & 1) {
     for (int k = 0; k < 5; ++k) request.frequencies.push_back(in.number(1.0, 200.0));
@@ -184,6 +192,35 @@ void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fai
   request.settle_periods = in.number(0.0, 5.0);
   request.integration_periods = in.number(1.0, 5.0);
   request.min_integration_time = in.number(0.0, 0.2);
+  return request;
+}
+
+// A valve fit to hostile frequency-response points: it succeeds or says why.
+void fitHostilePoints(Bytes& in, const std::function<void(const std::string&)>& fail) {
+  std::vector<FrequencyResponsePoint> points;
+  for (int i = 0; i < 8 && !in.empty(); ++i) {
+    FrequencyResponsePoint p;
+    p.frequency = in.number(1.0, 300.0);
+    p.magnitude = in.number(0.0, 0.2);
+    p.phase = in.number(-10.0, 0.0);
+    p.magnitude_std = in.number(0.0, 0.01);
+    p.phase_std = in.number(0.0, 0.1);
+    points.push_back(p);
+  }
+  const ServoValveFit fit = fitServoValve(points);
+  if (!fit.success && fit.message.empty()) fail("a failed valve fit without a reason");
+}
+
+void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fail) {
+  const SweepLimits limits = hostileLimits(in);
+  std::unique_ptr<ValveSweep> sweep;
+  try {
+    sweep = std::make_unique<ValveSweep>(limits);
+  } catch (const std::invalid_argument& e) {
+    if (limits.validate().empty()) fail(std::string("valid sweep limits refused: ") + e.what());
+    return;
+  }
+  const SweepRequest request = hostileRequest(in);
   PlantCondition plant;
   plant.pressure = in.number(0.0, 100e5);
   plant.velocity = in.number(-0.01, 0.01);
@@ -213,18 +250,7 @@ void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fai
   const RecordedSweep recorded = analyzeRecordedSweep(echo);
   if (recorded.fit.success && !std::isfinite(recorded.fit.parameters.natural_frequency))
     fail("non-finite valve fit");
-  std::vector<FrequencyResponsePoint> points;
-  for (int i = 0; i < 8 && !in.empty(); ++i) {
-    FrequencyResponsePoint p;
-    p.frequency = in.number(1.0, 300.0);
-    p.magnitude = in.number(0.0, 0.2);
-    p.phase = in.number(-10.0, 0.0);
-    p.magnitude_std = in.number(0.0, 0.01);
-    p.phase_std = in.number(0.0, 0.1);
-    points.push_back(p);
-  }
-  const ServoValveFit fit = fitServoValve(points);
-  if (!fit.success && fit.message.empty()) fail("a failed valve fit without a reason");
+  fitHostilePoints(in, fail);
 }
 
 }  // namespace

@@ -62,6 +62,41 @@ double parameter(const YAML::Node& parameters, const std::string& name) {
   return NAN;
 }
 
+// The fit by stroke phase; the phase where the missing leak makes its error (within 50 ms of the
+// measurement): the bottom hold, where the valve is shut and only the leak moves the pressure.
+void expectTheFitByPhaseWithTheLeaksHold(const YAML::Node& s) {
+  EXPECT_GT(s["fit"]["samples"].as<int>(), 10000);
+  EXPECT_GT(s["fit"]["equation_error_rms"].as<double>(), 0.0);
+  std::set<std::string> phases;
+  for (const auto& p : s["fit"]["by_phase"]) {
+    phases.insert(p["phase"].as<std::string>());
+    EXPECT_GT(p["samples"].as<int>(), 0);
+    EXPECT_TRUE(p["simulation_error_rms"]);
+  }
+  EXPECT_EQ(phases, (std::set<std::string>{"rest", "impact", "drawing", "bottom_hold", "release", "return"}));
+  ASSERT_GE(s["fit"]["worst_regions"].size(), 1u);
+  std::string worst_phase;
+  for (const auto& sentence : s["fit"]["worst_regions"]) {
+    if (sentence.as<std::string>().find(" during ") != std::string::npos) worst_phase = sentence.as<std::string>();
+  }
+  EXPECT_NE(worst_phase.find("bottom_hold"), std::string::npos) << worst_phase;
+  for (const auto& p : s["fit"]["by_phase"]) EXPECT_TRUE(p["made_error_rms"]) << p["phase"];
+}
+
+// The valve, found without metadata, and its model the one the fits judged the port side with.
+void expectTheSweepsValve(const YAML::Node& s) {
+  ASSERT_TRUE(s["valve"]);
+  EXPECT_EQ(s["model"]["valve_model"].as<std::string>(), "sweep");
+  EXPECT_NEAR(s["valve"]["natural_frequency"].as<double>(), 80.0, 80.0 * 0.03);
+  EXPECT_NEAR(s["valve"]["damping"].as<double>(), 0.7, 0.07);
+  EXPECT_NEAR(s["valve"]["gain"].as<double>(), 0.1, 0.002);
+  EXPECT_NEAR(s["valve"]["dead_time"].as<double>(), 0.002, 0.3e-3);
+  ASSERT_EQ(s["valve"]["points"].size(), 16u);
+  for (const auto& p : s["valve"]["points"]) {
+    for (const char* key : {"frequency", "magnitude", "phase"}) EXPECT_TRUE(p[key]) << key;
+  }
+}
+
 TEST_F(AnalyzeBag, SummaryFollowsTheContractAndFindsTheMissingLeakage) {
   const YAML::Node s = analyze(kWork + "/leak.bag", kWork + "/base");
   // model
@@ -71,26 +106,8 @@ TEST_F(AnalyzeBag, SummaryFollowsTheContractAndFindsTheMissingLeakage) {
   for (const auto& p : s["model"]["parameters"]) {
     for (const char* key : {"name", "value", "std", "unit"}) EXPECT_TRUE(p[key]) << key;
   }
-  // fit
-  EXPECT_GT(s["fit"]["samples"].as<int>(), 10000);
-  EXPECT_GT(s["fit"]["equation_error_rms"].as<double>(), 0.0);
   const double base_error = s["fit"]["simulation_error_rms"].as<double>();
-  std::set<std::string> phases;
-  for (const auto& p : s["fit"]["by_phase"]) {
-    phases.insert(p["phase"].as<std::string>());
-    EXPECT_GT(p["samples"].as<int>(), 0);
-    EXPECT_TRUE(p["simulation_error_rms"]);
-  }
-  EXPECT_EQ(phases, (std::set<std::string>{"rest", "impact", "drawing", "bottom_hold", "release", "return"}));
-  // The stroke phase where the missing leak makes its error (within 50 ms of the measurement): the bottom hold,
-  // where the valve is shut and only the leak moves the pressure.
-  ASSERT_GE(s["fit"]["worst_regions"].size(), 1u);
-  std::string worst_phase;
-  for (const auto& sentence : s["fit"]["worst_regions"]) {
-    if (sentence.as<std::string>().find(" during ") != std::string::npos) worst_phase = sentence.as<std::string>();
-  }
-  EXPECT_NE(worst_phase.find("bottom_hold"), std::string::npos) << worst_phase;
-  for (const auto& p : s["fit"]["by_phase"]) EXPECT_TRUE(p["made_error_rms"]) << p["phase"];
+  expectTheFitByPhaseWithTheLeaksHold(s);
   // The settings chosen from the recording, with their reasons.
   ASSERT_TRUE(s["settings"]);
   EXPECT_TRUE(s["settings"]["chosen_from_recording"].as<bool>());
@@ -111,17 +128,7 @@ TEST_F(AnalyzeBag, SummaryFollowsTheContractAndFindsTheMissingLeakage) {
     EXPECT_FALSE(c["explanation"].as<std::string>().empty());
     EXPECT_TRUE(c["error_reduction"]);
   }
-  // valve, found without metadata, and its model the one the fits judged the port side with
-  ASSERT_TRUE(s["valve"]);
-  EXPECT_EQ(s["model"]["valve_model"].as<std::string>(), "sweep");
-  EXPECT_NEAR(s["valve"]["natural_frequency"].as<double>(), 80.0, 80.0 * 0.03);
-  EXPECT_NEAR(s["valve"]["damping"].as<double>(), 0.7, 0.07);
-  EXPECT_NEAR(s["valve"]["gain"].as<double>(), 0.1, 0.002);
-  EXPECT_NEAR(s["valve"]["dead_time"].as<double>(), 0.002, 0.3e-3);
-  ASSERT_EQ(s["valve"]["points"].size(), 16u);
-  for (const auto& p : s["valve"]["points"]) {
-    for (const char* key : {"frequency", "magnitude", "phase"}) EXPECT_TRUE(p[key]) << key;
-  }
+  expectTheSweepsValve(s);
 
   // Adding the effect: the error falls at least twofold and the leak comes out in physical units.
   const YAML::Node with = analyze(kWork + "/leak.bag", kWork + "/with_leakage", "--effects leakage");
@@ -224,7 +231,7 @@ TEST_F(AnalyzeBag, ACustomEffectOutsideTheLibraryLowersTheErrorTwofold) {
   EXPECT_NEAR(parameter(custom["model"]["parameters"], "relief_theta") / 3e-10, 1.0, 0.25);
 }
 
-TEST_F(AnalyzeBag, BadInputGetsAClearErrorAndAnExitCode) {
+TEST_F(AnalyzeBag, ABadCommandLineOrConfigurationExitsWithTwoNamingTheProblem) {
   const std::string tool = kTools + "/analyze_bag ";
   // Command line.
   CommandResult r = run(tool + kWork + "/leak.bag");
@@ -250,8 +257,11 @@ TEST_F(AnalyzeBag, BadInputGetsAClearErrorAndAnExitCode) {
   r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --config " + kWork + "/missing.yaml");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("cannot read config file"), std::string::npos) << r.output;
-  // The bag.
-  r = run(tool + kWork + "/no_such.bag --out " + kWork + "/x");
+}
+
+TEST_F(AnalyzeBag, AnUnusableBagExitsWithThreeAndACutOneWithAPartialResult) {
+  const std::string tool = kTools + "/analyze_bag ";
+  CommandResult r = run(tool + kWork + "/no_such.bag --out " + kWork + "/x");
   EXPECT_EQ(r.status, 3);
   EXPECT_NE(r.output.find("cannot open bag"), std::string::npos) << r.output;
   {
@@ -342,34 +352,42 @@ TEST_F(AnalyzeBag, CompressedBagsGiveTheSameResults) {
   }
 }
 
-// The hostile-input review's cases: each gets a clear message, the right exit code and finite outputs.
-TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
-  const std::string tool = kTools + "/analyze_bag ";
-  const std::string geometry = "piston_area: 0.05\nstroke_length: 0.25\nsupply_pressure: 120e5\n";
-  const auto config = [&](const std::string& name, const std::string& text) {
-    std::ofstream(kWork + "/" + name) << text;
-    return " --config " + kWork + "/" + name;
-  };
-  const std::regex non_finite(R"((\.nan|\.inf|\bnan\b|\binf\b))", std::regex::icase);
-  const auto expectFinite = [&](const std::string& directory) {
-    for (const char* file : {"summary.yaml", "estimates.csv", "model_comparison.csv"}) {
-      const std::string text = fileText(directory + "/" + file);
-      EXPECT_FALSE(text.empty()) << file;
-      EXPECT_FALSE(std::regex_search(text, non_finite)) << directory << "/" << file << " holds a non-finite value";
-    }
-  };
+const std::string kGeometry = "piston_area: 0.05\nstroke_length: 0.25\nsupply_pressure: 120e5\n";
 
+// A config file in the work folder, as the option that names it.
+std::string configFile(const std::string& name, const std::string& text) {
+  std::ofstream(kWork + "/" + name) << text;
+  return " --config " + kWork + "/" + name;
+}
+
+// The outputs a finished run wrote hold no non-finite value.
+void expectFinite(const std::string& directory) {
+  const std::regex non_finite(R"((\.nan|\.inf|\bnan\b|\binf\b))", std::regex::icase);
+  for (const char* file : {"summary.yaml", "estimates.csv", "model_comparison.csv"}) {
+    const std::string text = fileText(directory + "/" + file);
+    EXPECT_FALSE(text.empty()) << file;
+    EXPECT_FALSE(std::regex_search(text, non_finite))
+        << directory << "/" << file << " holds a non-finite value";
+  }
+}
+
+// The hostile-input review's cases: each gets a clear message, the right exit code and finite outputs.
+TEST_F(AnalyzeBag, HostileConfigurationsAreRefusedNamingTheKey) {
+  const std::string tool = kTools + "/analyze_bag ";
   // Configurations that used to abort the program or be misreported.
   std::system(("mkdir -p " + kWork + "/a_directory").c_str());
   CommandResult r = run(tool + kWork + "/leak.bag --out " + kWork + "/x --config " + kWork + "/a_directory");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("is a directory"), std::string::npos) << r.output;
-  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" + config("nonscalar.yaml", "[a, b]: 1\ntopics: {pressure: [1, 2]}\n"));
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" +
+          configFile("nonscalar.yaml", "[a, b]: 1\ntopics: {pressure: [1, 2]}\n"));
   EXPECT_EQ(r.status, 2) << r.output;
-  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" + config("width.yaml", "moving_average_width: 31.5\n"));
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" +
+          configFile("width.yaml", "moving_average_width: 31.5\n"));
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("moving_average_width = 31.5"), std::string::npos) << r.output;
-  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" + config("period.yaml", "sample_period: 100\n"));
+  r = run(tool + kWork + "/leak.bag --out " + kWork + "/x" +
+          configFile("period.yaml", "sample_period: 100\n"));
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("sample_period = 100"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("max_gap"), std::string::npos) << "only the wrong key is named:\n" << r.output;
@@ -378,14 +396,18 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
     EXPECT_EQ(r.status, 2) << custom << "\n" << r.output;
     EXPECT_NE(r.output.find(custom + 2), std::string::npos) << r.output;
   }
+}
 
+TEST_F(AnalyzeBag, AbsurdValuesAreRejectedCountedAndNothingNonFiniteIsWritten) {
+  const std::string tool = kTools + "/analyze_bag ";
   // Absurd values in the recording: rejected like NaN, counted, and nothing non-finite written.
   rewritePressure(kWork + "/leak.bag", kWork + "/absurd.bag", [](int i, sensor_msgs::FluidPressure& m) {
     if (i >= 5000 && i < 5020) m.fluid_pressure = 1e300;
     if (i >= 9000 && i < 9020) m.fluid_pressure = 1e9;
     if (i == 12000) m.fluid_pressure = -1e300;
   });
-  r = run(tool + kWork + "/absurd.bag --out " + kWork + "/absurd" + config("geometry.yaml", geometry));
+  const CommandResult r =
+      run(tool + kWork + "/absurd.bag --out " + kWork + "/absurd" + configFile("geometry.yaml", kGeometry));
   EXPECT_EQ(r.status, 0) << r.output;
   {
     const YAML::Node s = YAML::LoadFile(kWork + "/absurd/summary.yaml");
@@ -396,7 +418,10 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
     EXPECT_EQ(s["candidates"][0]["verdict"].as<std::string>(), "missing");
   }
   expectFinite(kWork + "/absurd");
+}
 
+TEST_F(AnalyzeBag, PositionMessagesWithoutAPositionAreCountedAndSaid) {
+  const std::string tool = kTools + "/analyze_bag ";
   // Position messages without a position are rejected and counted like the node counts them, and said.
   {
     rosbag::Bag source(kWork + "/leak.bag", rosbag::bagmode::Read);
@@ -412,7 +437,8 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
       }
     }
   }
-  r = run(tool + kWork + "/no_position.bag --out " + kWork + "/no_position" + config("geometry.yaml", geometry));
+  const CommandResult r = run(tool + kWork + "/no_position.bag --out " + kWork + "/no_position" +
+                              configFile("geometry.yaml", kGeometry));
   EXPECT_EQ(r.status, 0) << r.output;
   {
     const YAML::Node s = YAML::LoadFile(kWork + "/no_position/summary.yaml");
@@ -421,12 +447,16 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
     EXPECT_TRUE(anyWarningSays(s, "without a position")) << fileText(kWork + "/no_position/summary.yaml");
     EXPECT_EQ(s["candidates"][0]["effect"].as<std::string>(), "leakage");
   }
+}
 
+TEST_F(AnalyzeBag, PressureInBarOrNoValveTopicIdentifiesNothingAndSaysWhy) {
+  const std::string tool = kTools + "/analyze_bag ";
   // Pressure recorded in bar: nothing can be identified, and the summary says why instead of showing the
   // initial values with std 0 and "within the noise".
   rewritePressure(kWork + "/leak.bag", kWork + "/bar.bag",
                   [](int, sensor_msgs::FluidPressure& m) { m.fluid_pressure *= 1e-5; });
-  r = run(tool + kWork + "/bar.bag --out " + kWork + "/bar" + config("geometry.yaml", geometry));
+  CommandResult r =
+      run(tool + kWork + "/bar.bag --out " + kWork + "/bar" + configFile("geometry.yaml", kGeometry));
   EXPECT_EQ(r.status, 5) << r.output;
   {
     const YAML::Node s = YAML::LoadFile(kWork + "/bar/summary.yaml");
@@ -439,10 +469,13 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
 
   // The valve topic missing: partial, said, no parameters.
   rewritePressure(kWork + "/leak.bag", kWork + "/novalve.bag", [](int, sensor_msgs::FluidPressure&) {}, true);
-  r = run(tool + kWork + "/novalve.bag --out " + kWork + "/novalve" + config("geometry.yaml", geometry));
+  r = run(tool + kWork + "/novalve.bag --out " + kWork + "/novalve" + configFile("geometry.yaml", kGeometry));
   EXPECT_EQ(r.status, 5) << r.output;
   EXPECT_EQ(YAML::LoadFile(kWork + "/novalve/summary.yaml")["model"]["parameters"].size(), 0u);
+}
 
+TEST_F(AnalyzeBag, CorruptedBytesAreNamedWhereTheyAreAndALostIndexLosesNothing) {
+  const std::string tool = kTools + "/analyze_bag ";
   // Corrupted bytes in the middle: partial, with the share that was read.
   {
     std::string bytes = fileText(kWork + "/leak.bag");
@@ -453,7 +486,8 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
     for (std::size_t i = 0; i < 200; ++i) bytes[record - 20 + i] = static_cast<char>(0xA5);
     std::ofstream(kWork + "/corrupt.bag", std::ios::binary) << bytes;
   }
-  r = run(tool + kWork + "/corrupt.bag --out " + kWork + "/corrupt" + config("geometry.yaml", geometry));
+  CommandResult r =
+      run(tool + kWork + "/corrupt.bag --out " + kWork + "/corrupt" + configFile("geometry.yaml", kGeometry));
   EXPECT_EQ(r.status, 5) << r.output;
   {
     // Named where it is, and the reading goes on after it: a few messages lost, not the rest of the bag.
@@ -471,41 +505,37 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
     std::ofstream(kWork + "/noindex.bag", std::ios::binary) << bytes.substr(0, bytes.size() - 2000);
   }
   r = run("TMPDIR=" + tmp + " " + tool + kWork + "/noindex.bag --out " + kWork + "/noindex" +
-          config("geometry.yaml", geometry));
+          configFile("geometry.yaml", kGeometry));
   EXPECT_EQ(r.status, 0) << r.output;
   {
     const YAML::Node s = YAML::LoadFile(kWork + "/noindex/summary.yaml");
-    EXPECT_EQ(s["input"]["messages"].as<int>(), YAML::LoadFile(kWork + "/base/summary.yaml")["input"]["messages"].as<int>())
+    EXPECT_EQ(s["input"]["messages"].as<int>(),
+              analyze(kWork + "/leak.bag", kWork + "/indexed")["input"]["messages"].as<int>())
         << "every message was read";
     EXPECT_TRUE(anyWarningSays(s, "lost its index"));
   }
   EXPECT_EQ(run("ls -A " + tmp).output, "") << "no temporary copy";
+}
 
+TEST_F(AnalyzeBag, AReusedOutputFolderKeepsNoStaleFileAndListsWhatItHolds) {
+  const std::string tool = kTools + "/analyze_bag ";
   // A reused output folder keeps no stale file of the previous run.
   ASSERT_EQ(run(tool + kWork + "/leak.bag --out " + kWork + "/reused").status, 0);
   ASSERT_TRUE(std::ifstream(kWork + "/reused/frequency_response.csv").good());
-  ASSERT_EQ(run(tool + kWork + "/absurd.bag --out " + kWork + "/reused" + config("geometry.yaml", geometry)).status, 0);
-  EXPECT_TRUE(std::ifstream(kWork + "/reused/frequency_response.csv").good()) << "this bag has a sweep too";
+  ASSERT_EQ(
+      run(tool + kWork + "/leak.bag --out " + kWork + "/reused" + configFile("geometry.yaml", kGeometry))
+          .status,
+      0);
+  EXPECT_TRUE(std::ifstream(kWork + "/reused/frequency_response.csv").good())
+      << "a sweep again: written again";
   ASSERT_EQ(run(kTools + "/simulate_bag " + kWork + "/nosweep.bag --cycles 3 --seed 2").status, 0);
-  ASSERT_EQ(run(tool + kWork + "/nosweep.bag --out " + kWork + "/reused" + config("geometry.yaml", geometry)).status, 0);
+  ASSERT_EQ(
+      run(tool + kWork + "/nosweep.bag --out " + kWork + "/reused" + configFile("geometry.yaml", kGeometry))
+          .status,
+      0);
   EXPECT_FALSE(std::ifstream(kWork + "/reused/frequency_response.csv").good()) << "no stale valve results";
   EXPECT_FALSE(std::ifstream(kWork + "/reused/valve_fit.csv").good()) << "no stale valve results";
 
-  // A full disk (a file-size limit here), hit while writing different files: exit 4 with the reason, never
-  // an abort, and no file left under a final name or half-written under a temporary one (issue 28).
-  for (const int kilobytes : {20, 200, 1000}) {
-    const std::string out = kWork + "/full" + std::to_string(kilobytes);
-    std::system(("mkdir -p " + out).c_str());
-    r = run("bash -c 'trap \"\" XFSZ; ulimit -f " + std::to_string(kilobytes) + "; " + tool + kWork +
-            "/leak.bag --out " + out + config("geometry.yaml", geometry) + "'");
-    EXPECT_EQ(r.status, 4) << r.output;
-    EXPECT_NE(r.output.find("cannot write"), std::string::npos) << r.output;
-    for (const std::string name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
-                                   "frequency_response.csv", "valve_fit.csv", "proposals.csv"}) {
-      EXPECT_FALSE(std::ifstream(out + "/" + name).good()) << kilobytes << " kB: " << name;
-      EXPECT_FALSE(std::ifstream(out + "/" + name + ".partial").good()) << kilobytes << " kB: " << name;
-    }
-  }
   // A complete run lists what it wrote, and each is there.
   const YAML::Node whole = YAML::LoadFile(kWork + "/reused/summary.yaml");
   ASSERT_TRUE(whole["outputs"].IsSequence());
@@ -514,77 +544,108 @@ TEST_F(AnalyzeBag, HostileBagsAndConfigsGetTheRightExitCodeAndFiniteOutputs) {
   }
 }
 
+// A full disk (a file-size limit here), hit while writing different files: exit 4 with the reason, never
+// an abort, and no file left under a final name or half-written under a temporary one (issue 28).
+TEST_F(AnalyzeBag, AFullDiskExitsWithFourAndLeavesNoFile) {
+  const std::string tool = kTools + "/analyze_bag ";
+  for (const int kilobytes : {20, 200, 1000}) {
+    const std::string out = kWork + "/full" + std::to_string(kilobytes);
+    std::system(("mkdir -p " + out).c_str());
+    const CommandResult r =
+        run("bash -c 'trap \"\" XFSZ; ulimit -f " + std::to_string(kilobytes) + "; " + tool + kWork +
+            "/leak.bag --out " + out + configFile("geometry.yaml", kGeometry) + "'");
+    EXPECT_EQ(r.status, 4) << r.output;
+    EXPECT_NE(r.output.find("cannot write"), std::string::npos) << r.output;
+    for (const std::string name : {"summary.yaml", "analysis.bag", "estimates.csv", "model_comparison.csv",
+                                   "frequency_response.csv", "valve_fit.csv", "proposals.csv"}) {
+      EXPECT_FALSE(std::ifstream(out + "/" + name).good()) << kilobytes << " kB: " << name;
+      EXPECT_FALSE(std::ifstream(out + "/" + name + ".partial").good()) << kilobytes << " kB: " << name;
+    }
+  }
+}
+
 // Generated hostile bags, the review's cases and more like them: random mixtures of absurd values, NaN,
 // wild and zero stamps, lost topics, corrupted bytes and cut-off ends. Whatever the bag, analyze_bag ends
 // with an exit code of the contract (never a signal), writes nothing non-finite, and a partial result
 // always says why.
+// A hostile copy of `source` as case `c`: absurd values in bursts, wild and zero stamps, a lost topic,
+// pressure in bar, no velocity, corrupted bytes or a cut-off end, drawn from `rng`.
+void writeHostileCopy(const std::string& source_path, const std::string& bag, int c, std::mt19937& rng) {
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  const double kAbsurd[] = {1e300, -1e300, NAN, INFINITY, 1e9, -1e9, 0.0};
+  const double burst = uniform(rng), wild = uniform(rng) * 0.01, drop = uniform(rng);
+  const double scale = c % 4 == 1 ? 1e-5 : 1.0;
+  {
+    rosbag::Bag source(source_path, rosbag::bagmode::Read);
+    rosbag::Bag target(bag, rosbag::bagmode::Write);
+    int index = 0;
+    for (const rosbag::MessageInstance& m : rosbag::View(source)) {
+      ++index;
+      const bool absurd = uniform(rng) < 0.002 || (index % 3000 < 20 && burst < 0.5);
+      const double value = kAbsurd[index % 7];
+      const double stamp_shift = uniform(rng) < wild ? (uniform(rng) < 0.5 ? -100.0 : 1000.0) : 0.0;
+      const auto stamped = [&](std_msgs::Header& h) {
+        h.stamp = h.stamp.toSec() + stamp_shift > 0 ? ros::Time(h.stamp.toSec() + stamp_shift) : ros::Time(0);
+        if (uniform(rng) < 0.001) h.stamp = ros::Time(0);
+      };
+      if (m.getTopic() == "/die_cushion/pressure") {
+        auto msg = m.instantiate<sensor_msgs::FluidPressure>();
+        msg->fluid_pressure = absurd ? value : msg->fluid_pressure * scale;
+        stamped(msg->header);
+        target.write(m.getTopic(), m.getTime(), *msg);
+      } else if (m.getTopic() == "/die_cushion/position") {
+        if (drop < 0.1) continue;  // the position topic lost
+        auto msg = m.instantiate<sensor_msgs::JointState>();
+        if (absurd) msg->position[0] = value;
+        if (c % 3 == 2) msg->velocity.clear();
+        stamped(msg->header);
+        target.write(m.getTopic(), m.getTime(), *msg);
+      } else {
+        if (drop > 0.9) continue;  // the valve topic lost
+        target.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
+      }
+    }
+  }
+  if (c % 5 == 3) {  // corrupted bytes in the middle, or a cut-off end
+    std::string bytes = fileText(bag);
+    for (int k = 0; k < 200; ++k) bytes[bytes.size() / 2 + k] = static_cast<char>(rng());
+    std::ofstream(bag, std::ios::binary) << bytes;
+  } else if (c % 5 == 4) {
+    const std::string bytes = fileText(bag);
+    std::ofstream(bag, std::ios::binary)
+        << bytes.substr(0, static_cast<std::size_t>(bytes.size() * (0.3 + 0.69 * uniform(rng))));
+  }
+}
+
+// Whatever the bag: an exit code of the contract, nothing non-finite written, a partial result says why.
+void expectTheContract(const CommandResult& r, const std::string& out) {
+  const std::regex non_finite(R"((\.nan|\.inf|\bnan\b|\binf\b))", std::regex::icase);
+  EXPECT_TRUE(r.status == 0 || r.status == 3 || r.status == 5) << "exit " << r.status << "\n" << r.output;
+  if (r.status == 0 || r.status == 5) {
+    const std::string text = fileText(out + "/summary.yaml");
+    EXPECT_FALSE(std::regex_search(text, non_finite)) << text;
+    const YAML::Node summary = YAML::Load(text);
+    if (r.status == 5) {
+      EXPECT_GT(summary["warnings"].size(), 0u) << "a partial result says why";
+    }
+    EXPECT_FALSE(std::regex_search(fileText(out + "/model_comparison.csv"), non_finite));
+  } else {
+    EXPECT_NE(r.output.find("analyze_bag: "), std::string::npos) << "a refusal says why";
+  }
+}
+
 TEST_F(AnalyzeBag, GeneratedHostileBagsKeepTheContract) {
   const std::string tool = kTools + "/analyze_bag ";
   ASSERT_EQ(run(kTools + "/simulate_bag " + kWork + "/base3.bag --cycles 3 --seed 9 --sweep").status, 0);
-  const std::regex non_finite(R"((\.nan|\.inf|\bnan\b|\binf\b))", std::regex::icase);
   std::mt19937 rng(20261123);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  const double kAbsurd[] = {1e300, -1e300, NAN, INFINITY, 1e9, -1e9, 0.0};
   const char* more = std::getenv("DCI_GENERATED_BAGS");  // a longer run: DCI_GENERATED_BAGS=200
   const int cases = more ? std::max(1, std::atoi(more)) : 10;
   for (int c = 0; c < cases; ++c) {
     SCOPED_TRACE("generated case " + std::to_string(c));
     const std::string bag = kWork + "/generated_" + std::to_string(c) + ".bag";
-    const double burst = uniform(rng), wild = uniform(rng) * 0.01, drop = uniform(rng);
-    const double scale = c % 4 == 1 ? 1e-5 : 1.0;
-    {
-      rosbag::Bag source(kWork + "/base3.bag", rosbag::bagmode::Read);
-      rosbag::Bag target(bag, rosbag::bagmode::Write);
-      int index = 0;
-      for (const rosbag::MessageInstance& m : rosbag::View(source)) {
-        ++index;
-        const bool absurd = uniform(rng) < 0.002 || (index % 3000 < 20 && burst < 0.5);
-        const double value = kAbsurd[index % 7];
-        const double stamp_shift = uniform(rng) < wild ? (uniform(rng) < 0.5 ? -100.0 : 1000.0) : 0.0;
-        const auto stamped = [&](std_msgs::Header& h) {
-          h.stamp = h.stamp.toSec() + stamp_shift > 0 ? ros::Time(h.stamp.toSec() + stamp_shift) : ros::Time(0);
-          if (uniform(rng) < 0.001) h.stamp = ros::Time(0);
-        };
-        if (m.getTopic() == "/die_cushion/pressure") {
-          auto msg = m.instantiate<sensor_msgs::FluidPressure>();
-          msg->fluid_pressure = absurd ? value : msg->fluid_pressure * scale;
-          stamped(msg->header);
-          target.write(m.getTopic(), m.getTime(), *msg);
-        } else if (m.getTopic() == "/die_cushion/position") {
-          if (drop < 0.1) continue;  // the position topic lost
-          auto msg = m.instantiate<sensor_msgs::JointState>();
-          if (absurd) msg->position[0] = value;
-          if (c % 3 == 2) msg->velocity.clear();
-          stamped(msg->header);
-          target.write(m.getTopic(), m.getTime(), *msg);
-        } else {
-          if (drop > 0.9) continue;  // the valve topic lost
-          target.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
-        }
-      }
-    }
-    if (c % 5 == 3) {  // corrupted bytes in the middle, or a cut-off end
-      std::string bytes = fileText(bag);
-      for (int k = 0; k < 200; ++k) bytes[bytes.size() / 2 + k] = static_cast<char>(rng());
-      std::ofstream(bag, std::ios::binary) << bytes;
-    } else if (c % 5 == 4) {
-      const std::string bytes = fileText(bag);
-      std::ofstream(bag, std::ios::binary) << bytes.substr(0, static_cast<std::size_t>(bytes.size() * (0.3 + 0.69 * uniform(rng))));
-    }
+    writeHostileCopy(kWork + "/base3.bag", bag, c, rng);
     const std::string out = kWork + "/generated_" + std::to_string(c);
-    const CommandResult r = run(tool + bag + " --out " + out);
-    EXPECT_TRUE(r.status == 0 || r.status == 3 || r.status == 5) << "exit " << r.status << "\n" << r.output;
-    if (r.status == 0 || r.status == 5) {
-      const std::string text = fileText(out + "/summary.yaml");
-      EXPECT_FALSE(std::regex_search(text, non_finite)) << text;
-      const YAML::Node summary = YAML::Load(text);
-      if (r.status == 5) {
-        EXPECT_GT(summary["warnings"].size(), 0u) << "a partial result says why";
-      }
-      EXPECT_FALSE(std::regex_search(fileText(out + "/model_comparison.csv"), non_finite));
-    } else {
-      EXPECT_NE(r.output.find("analyze_bag: "), std::string::npos) << "a refusal says why";
-    }
+    expectTheContract(run(tool + bag + " --out " + out), out);
   }
 }
 

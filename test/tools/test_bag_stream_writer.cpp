@@ -23,35 +23,37 @@ std::string temporaryPath(const std::string& name) {
   return "/tmp/test_bag_stream_writer_" + std::to_string(::getpid()) + "_" + name;
 }
 
+// Pressure and position every ms, the valve every second ms, the position stamped 8 ms late.
+void writeThreeTopics(const std::string& path, int samples) {
+  BagStreamWriter bag(path);
+  for (int k = 0; k < samples; ++k) {
+    const ros::Time t(1700000000.0 + 1e-3 * k);
+    sensor_msgs::FluidPressure p;
+    p.header.stamp = t;
+    p.fluid_pressure = 1e6 + k;
+    bag.write("/die_cushion/pressure", t, p);
+    sensor_msgs::JointState x;
+    x.header.stamp = t;
+    x.name = {"ram", "cushion"};
+    x.position = {0.1, 1e-6 * k};
+    // The position topic stamped 8 ms late by another clock: its messages lag the others in the file.
+    const ros::Time late(1700000000.0 + 1e-3 * k - 0.008);
+    bag.write("/die_cushion/position", late, x);
+    if (k % 2 == 0) {
+      ValveSignal u;
+      u.header.stamp = t;
+      u.voltage = 1e-4 * k;
+      u.spool_position = -0.5;
+      bag.write("/die_cushion/valve", t, u);
+    }
+  }
+  bag.close();
+}
+
 TEST(BagStreamWriter, RosbagAndOurReaderReadBackEveryMessage) {
   const std::string path = temporaryPath("three_topics.bag");
   const int samples = 20000;  // several chunks (768 KB each)
-  {
-    BagStreamWriter bag(path);
-    for (int k = 0; k < samples; ++k) {
-      const ros::Time t(1700000000.0 + 1e-3 * k);
-      sensor_msgs::FluidPressure p;
-      p.header.stamp = t;
-      p.fluid_pressure = 1e6 + k;
-      bag.write("/die_cushion/pressure", t, p);
-      sensor_msgs::JointState x;
-      x.header.stamp = t;
-      x.name = {"ram", "cushion"};
-      x.position = {0.1, 1e-6 * k};
-      // The position topic stamped 8 ms late by another clock: its messages lag the others in the file.
-      const ros::Time late(1700000000.0 + 1e-3 * k - 0.008);
-      bag.write("/die_cushion/position", late, x);
-      if (k % 2 == 0) {
-        ValveSignal u;
-        u.header.stamp = t;
-        u.voltage = 1e-4 * k;
-        u.spool_position = -0.5;
-        bag.write("/die_cushion/valve", t, u);
-      }
-    }
-    bag.close();
-  }
-
+  writeThreeTopics(path, samples);
   rosbag::Bag in(path);
   rosbag::View view(in);
   int pressures = 0, positions = 0, valves = 0;

@@ -359,6 +359,17 @@ TEST_F(PressClasses, FalseAlarmsOnCleanPressesStayAtTheSignificance) {
 // DCI_PRESS_CALIBRATION=N recordings (scripts/uncertainty_calibration: 250, the median within 0.55-0.8 and the
 // coverage within 93-97 %); the suite runs 20, one per class and sensor configuration, with bounds that
 // hold for so few.
+double medianOf(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// The share of |error| / std ratios within 1.96 (95 % for a Gaussian error with its true std).
+double coverage(const std::vector<double>& v) {
+  return static_cast<double>(std::count_if(v.begin(), v.end(), [](double r) { return r <= 1.96; })) /
+         v.size();
+}
+
 TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects) {
   const char* requested = std::getenv("DCI_PRESS_CALIBRATION");
   const int recordings = requested ? std::max(20, std::atoi(requested)) : 20;
@@ -392,30 +403,24 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
       by_group[name].push_back(ratio);
     }
   }
-  const auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
-  const auto coverage = [](const std::vector<double>& v) {
-    return static_cast<double>(std::count_if(v.begin(), v.end(), [](double r) { return r <= 1.96; })) / v.size();
-  };
   for (const auto& [group, v] : by_group) {
-    std::printf("  %-32s %4zu estimates: median |error|/std %.2f, within 1.96 std %.1f %%\n", group.c_str(), v.size(),
-                median(v), 100.0 * coverage(v));
+    std::printf("  %-32s %4zu estimates: median |error|/std %.2f, within 1.96 std %.1f %%\n", group.c_str(),
+                v.size(), medianOf(v), 100.0 * coverage(v));
   }
   ASSERT_FALSE(ratios.empty());
-  std::printf("|error| / std over %d recordings (%d flagged partial and left out), %zu estimates: median %.2f, "
-              "within 1.96 std %.1f %%\n",
-              recordings, flagged, ratios.size(), median(ratios), 100.0 * coverage(ratios));
+  std::printf(
+      "|error| / std over %d recordings (%d flagged partial and left out), %zu estimates: median %.2f, "
+      "within 1.96 std %.1f %%\n",
+      recordings, flagged, ratios.size(), medianOf(ratios), 100.0 * coverage(ratios));
   if (recordings >= 200) {
-    EXPECT_GE(median(ratios), 0.55);
-    EXPECT_LE(median(ratios), 0.80);
+    EXPECT_GE(medianOf(ratios), 0.55);
+    EXPECT_LE(medianOf(ratios), 0.80);
     EXPECT_GE(coverage(ratios), 0.93);
     EXPECT_LE(coverage(ratios), 0.97);
   } else {
     // ~75 estimates: the median's and the coverage's own scatter.
-    EXPECT_GE(median(ratios), 0.35);
-    EXPECT_LE(median(ratios), 1.0);
+    EXPECT_GE(medianOf(ratios), 0.35);
+    EXPECT_LE(medianOf(ratios), 1.0);
     EXPECT_GE(coverage(ratios), 0.85);
   }
   EXPECT_LE(flagged, std::max(1, recordings / 50));

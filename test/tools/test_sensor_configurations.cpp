@@ -123,6 +123,28 @@ Analysis analyze(const std::string& bag, const std::string& config, const std::s
   return die_cushion_ident::testing::analyzeBag(kTools, bag, config, out, extra, kWork + "/last_output.txt");
 }
 
+// With the right effect added: physically right parameters, and the free run within 4x the noise. Returns
+// the free run's error [Pa].
+double expectTheRightModelFits(const Analysis& fixed, const std::string& effect) {
+  const double error = fixed.summary["fit"]["simulation_error_rms"].as<double>();
+  EXPECT_LT(error, 4.0 * kPressureNoise) << "free-run error with the right model, Pa";
+  const auto relative = [&](const std::string& name, double* relative_std = nullptr) {
+    double std = 0.0;
+    const double value = summaryParameter(fixed.summary, name, &std);
+    if (relative_std) *relative_std = std / kTruth.at(name);
+    return std::abs(value / kTruth.at(name) - 1.0);
+  };
+  EXPECT_LT(relative("bulk_modulus"), 0.05) << "bulk modulus within 5 % (test_hydraulic_identifier's bound)";
+  EXPECT_LT(relative("valve_flow_gain"), 0.02) << "flow gain within 2 %";
+  double dead_volume_std = 0.0;
+  const double dead_volume_error = relative("dead_volume", &dead_volume_std);
+  EXPECT_LT(dead_volume_error, std::max(0.10, 3.0 * dead_volume_std)) << "dead volume within 10 % or 3 sigma";
+  if (effect != "none") {
+    EXPECT_LT(relative(kEffectParameter.at(effect)), 0.25) << "the effect's parameter within 25 %";
+  }
+  return error;
+}
+
 class SensorMatrix : public ::testing::TestWithParam<std::string> {
  protected:
   static void SetUpTestSuite() { std::system(("rm -rf " + kWork + " && mkdir -p " + kWork).c_str()); }
@@ -171,22 +193,7 @@ TEST_P(SensorMatrix, EveryConfigurationGivesTheFullSensorVerdict) {
                                : analyze(bag, config, kWork + "/" + effect + "_" + c.name() + "_fixed",
                                          "--effects " + effect);
     ASSERT_EQ(fixed.status, 0) << fixed.output;
-    const double error = fixed.summary["fit"]["simulation_error_rms"].as<double>();
-    EXPECT_LT(error, 4.0 * kPressureNoise) << "free-run error with the right model, Pa";
-    const auto relative = [&](const std::string& name, double* relative_std = nullptr) {
-      double std = 0.0;
-      const double value = summaryParameter(fixed.summary, name, &std);
-      if (relative_std) *relative_std = std / kTruth.at(name);
-      return std::abs(value / kTruth.at(name) - 1.0);
-    };
-    EXPECT_LT(relative("bulk_modulus"), 0.05) << "bulk modulus within 5 % (test_hydraulic_identifier's bound)";
-    EXPECT_LT(relative("valve_flow_gain"), 0.02) << "flow gain within 2 %";
-    double dead_volume_std = 0.0;
-    const double dead_volume_error = relative("dead_volume", &dead_volume_std);
-    EXPECT_LT(dead_volume_error, std::max(0.10, 3.0 * dead_volume_std)) << "dead volume within 10 % or 3 sigma";
-    if (effect != "none") {
-      EXPECT_LT(relative(kEffectParameter.at(effect)), 0.25) << "the effect's parameter within 25 %";
-    }
+    const double error = expectTheRightModelFits(fixed, effect);
     std::printf("%-14s %-38s top %-14s %-12s free-run %.2f bar (noise 0.2)  K' %+.1f %%  delay_x %.2f ms\n",
                 effect.c_str(), c.name().c_str(), candidate["effect"].as<std::string>().c_str(),
                 candidate["verdict"].as<std::string>().c_str(), error * 1e-5,
