@@ -274,21 +274,10 @@ double freeRunRms(const std::vector<GridSample>& grid, const StrokeSegmentation&
                   const IdentificationConfig& config, int first, int last) {
   const HydraulicModel model = HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
   const HydraulicEstimate e = fitOnCycles(grid, strokes, config, first, last);
-  const ParameterVector theta = e.values();
-  FreeRunPressure free_run(model, config.min_pressure);
   const auto [begin, end] = strokes.range(first, last);
-  double sum = 0.0;
-  std::size_t n = 0;
-  for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
-    GridSample g = grid[i];
-    if (i == begin) g.discontinuity = true;
-    const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
-    const double p = free_run.step(g, theta, next);
-    if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
-    sum += (g.p - p) * (g.p - p);
-    ++n;
-  }
-  return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
+  const SquaredErrors errors = freeRunSquaredErrors(grid, begin, end, model, e.values(), config.min_pressure);
+  return errors.samples > 0 ? std::sqrt(errors.sum / errors.samples)
+                            : std::numeric_limits<double>::infinity();
 }
 
 // The screen ranks shapes by the equation error, which weighs fast transients by their noise; the

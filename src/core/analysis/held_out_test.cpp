@@ -84,18 +84,11 @@ ParameterVector refinedOnTraining(const std::vector<GridSample>& grid,
 void addHeldOutSquares(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                        const HydraulicModel& model, const ParameterVector& theta, double min_pressure,
                        int test_first, int test_last, std::vector<double>& sum, std::vector<int>& count) {
-  FreeRunPressure free_run(model, min_pressure);
   for (int c = test_first; c <= test_last; ++c) {
     const auto [begin, end] = strokes.range(c, c);
-    for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
-      GridSample g = grid[i];
-      if (i == begin) g.discontinuity = true;
-      const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
-      const double p = free_run.step(g, theta, next);
-      if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
-      sum[c] += (g.p - p) * (g.p - p);
-      ++count[c];
-    }
+    const SquaredErrors cycle = freeRunSquaredErrors(grid, begin, end, model, theta, min_pressure);
+    sum[c] += cycle.sum;
+    count[c] += static_cast<int>(cycle.samples);
   }
 }
 
@@ -136,6 +129,23 @@ HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const St
 }
 
 }  // namespace
+
+SquaredErrors freeRunSquaredErrors(const std::vector<GridSample>& grid, std::size_t begin, std::size_t end,
+                                   const HydraulicModel& model, const ParameterVector& theta,
+                                   double min_pressure) {
+  SquaredErrors errors;
+  FreeRunPressure free_run(model, min_pressure);
+  for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
+    GridSample g = grid[i];
+    if (i == begin) g.discontinuity = true;
+    const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
+    const double p = free_run.step(g, theta, next);
+    if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
+    errors.sum += (g.p - p) * (g.p - p);
+    ++errors.samples;
+  }
+  return errors;
+}
 
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                             const IdentificationConfig& config, int split, bool side_by_side,

@@ -17,6 +17,16 @@ struct HeldOutErrors {
   double rms = 0.0;               ///< [Pa] over all held-out samples
 };
 
+/// The squared free-run errors over grid samples [begin, end), the model run free from `begin` (anchored
+/// there: the stretch's error is its own, not carried over from before it).
+struct SquaredErrors {
+  double sum = 0.0;  ///< [Pa^2]
+  std::size_t samples = 0;
+};
+SquaredErrors freeRunSquaredErrors(const std::vector<GridSample>& grid, std::size_t begin, std::size_t end,
+                                   const HydraulicModel& model, const ParameterVector& theta,
+                                   double min_pressure);
+
 /// `side_by_side`: the two folds on two threads (the ranking's candidates are fewer than the cores' work
 /// items otherwise); the result is the same. `fitted_on_both`, when given, receives the fit on both folds'
 /// cycles combined from the two folds' fits (HydraulicIdentifier::combinedEstimate) rather than fitted again.
