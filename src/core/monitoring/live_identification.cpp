@@ -55,6 +55,26 @@ std::string describe(const Resolution& r) {
 
 }  // namespace
 
+const char* liveEventCodeName(LiveEventCode code) {
+  switch (code) {
+    case LiveEventCode::kSurveyed:
+      return "surveyed";
+    case LiveEventCode::kSettingsChosen:
+      return "settings_chosen";
+    case LiveEventCode::kSettingsNotChosen:
+      return "settings_not_chosen";
+    case LiveEventCode::kSettingBiased:
+      return "setting_biased";
+    case LiveEventCode::kResolutionLimited:
+      return "resolution_limited";
+    case LiveEventCode::kClockOffsetCorrected:
+      return "clock_offset_corrected";
+    case LiveEventCode::kTimeBaseRestarted:
+      return "time_base_restarted";
+  }
+  return "unknown";
+}
+
 LiveIdentification::LiveIdentification(const IdentificationConfig& config,
                                        LiveIdentificationSettings settings)
     : config_(config), settings_(std::move(settings)), delays_configured_(config.topicDelaysSet()) {
@@ -127,7 +147,7 @@ PushResult LiveIdentification::push(InputStream stream, const StreamSample& samp
   if (result == PushResult::kRestarted) {
     last_restart_stamp_ = sample.stamp;
     ++time_base_restarts_;
-    event(HealthLevel::kWarn,
+    event(HealthLevel::kWarn, LiveEventCode::kTimeBaseRestarted,
           std::string(inputStreamName(stream)) + " stamp jumped (bag restarted?): identification restarted");
     monitor_->resync();
     // A survey that saw the stamps jump back would mix two time bases: it starts over.
@@ -152,7 +172,7 @@ void LiveIdentification::surveyMessage(InputStream stream, const StreamSample& s
   if (survey_->push(stream, sample)) return;
   // The study costs a few tenths of a second: on its own thread, the identification goes on meanwhile.
   study_ = std::async(std::launch::async, [survey = std::move(survey_)] { return survey->choose(); });
-  event(HealthLevel::kOk,
+  event(HealthLevel::kOk, LiveEventCode::kSurveyed,
         formatted("surveyed the first %.0f s of messages: choosing the sample period and filters "
                   "from them",
                   settings_.survey_seconds));
@@ -164,8 +184,9 @@ void LiveIdentification::collectStudy() {
     adopt(study_.get());
   } catch (const std::exception& e) {
     study_failure_ = e.what();
-    event(HealthLevel::kWarn, "the settings could not be chosen from the recording (" + study_failure_ +
-                                  "): the configured settings stay");
+    event(HealthLevel::kWarn, LiveEventCode::kSettingsNotChosen,
+          "the settings could not be chosen from the recording (" + study_failure_ +
+              "): the configured settings stay");
   }
 }
 
@@ -208,18 +229,22 @@ void LiveIdentification::adopt(const SettingsChoice& choice) {
       monitor_->setValveModel(config_.valve, config_.valve_model_drives_free_run);
     }
   }
-  event(HealthLevel::kOk,
+  event(HealthLevel::kOk, LiveEventCode::kSettingsChosen,
         "settings chosen from the recording: " + describe(resolutionOf(config_)) + extra +
             (changed ? ": identification restarted with them" : ": as running, nothing restarted"));
-  for (const AnalysisWarning& warning : choice.warnings) event(HealthLevel::kWarn, warning.text);
-  if (!choice.resolution_limit.empty()) event(HealthLevel::kWarn, choice.resolution_limit);
+  for (const AnalysisWarning& warning : choice.warnings) {
+    event(HealthLevel::kWarn, LiveEventCode::kSettingBiased, warning.text);
+  }
+  if (!choice.resolution_limit.empty()) {
+    event(HealthLevel::kWarn, LiveEventCode::kResolutionLimited, choice.resolution_limit);
+  }
 }
 
 void LiveIdentification::applyDelayCorrection() {
   const auto delays = monitor_->takeDelayCorrection();
   if (!delays) return;
   config_.topic_delays = *delays;
-  event(HealthLevel::kWarn,
+  event(HealthLevel::kWarn, LiveEventCode::kClockOffsetCorrected,
         formatted(
             "the topics' stamps are offset (position %+.2f ms, valve %+.2f ms against pressure, estimated "
             "from the data): corrected, identification restarted; set ~topic_delays to fix them",

@@ -40,6 +40,12 @@ struct LivePress {
   bool surveyKeepsMessages() const {
     return live->settingsHealth().message.find("surveying") != std::string::npos;
   }
+  bool said(LiveEventCode code) const {
+    for (const auto& e : events) {
+      if (e.code == code) return true;
+    }
+    return false;
+  }
   bool said(const std::string& words) const {
     for (const auto& e : events) {
       if (e.text.find(words) != std::string::npos) return true;
@@ -74,7 +80,7 @@ TEST(LiveIdentification, AFastPressChoosesAFinerGridLiveAndItsFreeRunComesNearTh
   chosen.run(60.0);
   paper.run(60.0);
   ASSERT_TRUE(chosen.live->settingsChoice()) << chosen.live->settingsHealth().message;
-  EXPECT_TRUE(chosen.said("settings chosen from the recording")) << chosen.live->settingsHealth().message;
+  EXPECT_TRUE(chosen.said(LiveEventCode::kSettingsChosen)) << chosen.live->settingsHealth().message;
   const double period = chosen.live->config().resampler.sample_period;
   EXPECT_LT(period, 0.002) << chosen.live->settingsHealth().message;
   EXPECT_EQ(paper.live->config().resampler.sample_period, 0.002);
@@ -118,7 +124,7 @@ TEST(LiveIdentification, AStiffChambersLatePositionIsCorrectedEarlyByTheMonitorT
   EXPECT_NEAR(timing.applied_delays[1], 0.010, 3e-4);
   EXPECT_NEAR(timing.applied_delays[2], 0.0, 3e-4);
   // Corrected early (a session shorter than the survey is corrected too), then by the survey's estimate.
-  EXPECT_TRUE(late.said("the topics' stamps are offset"));
+  EXPECT_TRUE(late.said(LiveEventCode::kClockOffsetCorrected));
   EXPECT_TRUE(late.said("clock offsets position"));
   EXPECT_TRUE(late.live->monitor().topicDelayEstimate());
 }
@@ -129,7 +135,9 @@ TEST(LiveIdentification, AConfiguredPeriodIsKeptAndJudged) {
   configured.run(30.0);
   ASSERT_TRUE(configured.live->settingsChoice());
   EXPECT_EQ(configured.live->config().resampler.sample_period, 0.002);
-  EXPECT_TRUE(configured.said("sample_period 2 ms (configured) leaves a resolution error"));
+  EXPECT_TRUE(configured.said(LiveEventCode::kSettingBiased));
+  EXPECT_TRUE(configured.said("sample_period 2 ms (configured) leaves a resolution error"))
+      << "naming the key";
   EXPECT_EQ(configured.live->settingsHealth().level, HealthLevel::kWarn);
 }
 

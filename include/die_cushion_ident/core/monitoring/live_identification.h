@@ -31,9 +31,22 @@ struct LiveIdentificationSettings {
   std::set<std::string> configured;
 };
 
+/// What an event says, for owners and tests to match by (the words are for people).
+enum class LiveEventCode {
+  kSurveyed,              ///< the survey's seconds are in: the settings are being chosen
+  kSettingsChosen,        ///< the settings chosen from the recording (applied, or as running)
+  kSettingsNotChosen,     ///< the study failed: the configured settings stay
+  kSettingBiased,         ///< a warning of the study (a configured setting, the valve model, the filters)
+  kResolutionLimited,     ///< the recording's rates limit the resolution
+  kClockOffsetCorrected,  ///< the topics' stamps offset: corrected, identification restarted
+  kTimeBaseRestarted,     ///< the stamps jumped back (a bag played again): identification restarted
+};
+const char* liveEventCodeName(LiveEventCode code);
+
 /// Something the owner should tell its user (the node logs it; tests read it).
 struct LiveEvent {
   HealthLevel level = HealthLevel::kOk;  ///< kOk: information, kWarn: a warning
+  LiveEventCode code = LiveEventCode::kSurveyed;
   std::string text;
 };
 
@@ -100,7 +113,9 @@ class LiveIdentification {
   void collectStudy();
   void adopt(const SettingsChoice& choice);
   void applyDelayCorrection();
-  void event(HealthLevel level, std::string text) { events_.push_back({level, std::move(text)}); }
+  void event(HealthLevel level, LiveEventCode code, std::string text) {
+    events_.push_back({level, code, std::move(text)});
+  }
 
   IdentificationConfig config_;
   LiveIdentificationSettings settings_;
