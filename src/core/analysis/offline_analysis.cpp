@@ -83,7 +83,7 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits
 
 OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
   config_.refine_held_out_fits = true;
-  pressure_noise_.followGrid(config_.resampler.sample_period);
+  pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0]);
   pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) { grid_.push_back(g); });
   pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
 }
@@ -144,10 +144,7 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
 void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
   ++messages_;
   pipeline_.push(stream, sample);
-  // On the grid's time base (the pipeline moves each topic's stamps by its delay), for the grid's share.
-  if (stream == InputStream::kPressure) {
-    pressure_noise_.add(sample.stamp - config_.appliedTopicDelays()[0], sample.first);
-  }
+  if (stream == InputStream::kPressure) pressure_noise_.add(sample.stamp, sample.first);
   // The sweep analysis wants the raw valve signal, not the 2 ms grid (sweeps reach 160 Hz), but only where
   // the command can be a sweep: hours of press strokes are not kept.
   if (stream == InputStream::kValve && std::isfinite(sample.stamp) && std::isfinite(sample.first)) {
@@ -421,10 +418,6 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
     if (progress) progress(what);
   };
   OfflineResult& r = *result;
-  const auto cannot = [&r](const std::string& why) {
-    r.warnings.push_back({WarningCode::kNotRun, why});
-    r.partial = true;
-  };
   if (r.hydraulics && r.model.updates > 0) {
     tell("trying the library's other effects on held-out cycles");
     EffectRankingOptions ranking_options;
@@ -437,13 +430,17 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
       addFormulaProposals(grid_, r.strokes, config_, &r.ranking);
     }
     if (r.strokes.cycles == 0) {
-      cannot("no complete press stroke (impact, drawing, return to the top) in the recording: the effect "
-             "ranking could not run; record at least three complete strokes");
+      cannotRun(r,
+                "no complete press stroke (impact, drawing, return to the top) in the recording: the effect "
+                "ranking could not run; record at least three complete strokes");
     } else if (r.strokes.cycles < EffectRankingOptions().min_held_out_cycles) {
-      cannot("only " + std::to_string(r.strokes.cycles) + " complete press stroke(s): the effect ranking "
-             "needs " + std::to_string(EffectRankingOptions().min_held_out_cycles) +
-             " to judge on held-out strokes; every verdict is inconclusive (or not_needed where the fit is outside "
-             "the physical range)");
+      cannotRun(r, "only " + std::to_string(r.strokes.cycles) +
+                       " complete press stroke(s): the effect ranking "
+                       "needs " +
+                       std::to_string(EffectRankingOptions().min_held_out_cycles) +
+                       " to judge on held-out strokes; every verdict is inconclusive (or not_needed where "
+                       "the fit is outside "
+                       "the physical range)");
     }
   }
 

@@ -103,7 +103,7 @@ void LiveIdentification::setCallbacks(GridCallback on_grid, StepCallback on_step
 
 void LiveIdentification::rebuild() {
   pipeline_ = std::make_unique<IdentificationPipeline>(config_);
-  pressure_noise_.followGrid(config_.resampler.sample_period);
+  pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0]);
   pipeline_->setGridCallback(
       [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });
   // The scatter over many press cycles: 50 s (19 cycles of the paper's press; with 20-40 s the coverage
@@ -155,7 +155,7 @@ PushResult LiveIdentification::push(InputStream stream, const StreamSample& samp
   }
   if (survey_) surveyMessage(stream, sample);
   if (stream == InputStream::kPressure) {
-    pressure_noise_.add(sample.stamp - config_.appliedTopicDelays()[0], sample.first);
+    pressure_noise_.add(sample.stamp, sample.first);
     monitor_->setGridPressureNoise(pressure_noise_.forGrid(config_.resampler.sample_period));
   }
   // Changes that rebuild the pipeline, after the message (never from inside its callbacks).

@@ -21,7 +21,7 @@ void MessageNoise::add(double stamp, double value) {
   } else if (stamp - last_stamp_ <= kLongestInterval) {
     interval_sum_ += stamp - last_stamp_;
     ++intervals_;
-    addGridShares(last_stamp_, stamp);
+    addGridShares(last_stamp_ - grid_offset_, stamp - grid_offset_);
   } else {
     run_ = 0;
   }
@@ -38,8 +38,9 @@ double MessageNoise::meanInterval() const {
                         : std::numeric_limits<double>::quiet_NaN();
 }
 
-void MessageNoise::followGrid(double period) {
+void MessageNoise::followGrid(double period, double stamp_offset) {
   grid_period_ = period > 0.0 ? period : 0.0;
+  grid_offset_ = std::isfinite(stamp_offset) ? stamp_offset : 0.0;
   share_sum_ = 0.0;
   shares_ = 0;
 }

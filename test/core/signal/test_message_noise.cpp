@@ -62,7 +62,7 @@ TEST(MessageNoise, AFollowedGridIsJudgedByTheNoiseItsSamplesHold) {
   std::normal_distribution<double> jitter(0.0, 50e-6);  // the simulator's sampling jitter
   for (const double period : {0.5e-3, 1e-3}) {
     MessageNoise messages;
-    messages.followGrid(period);
+    messages.followGrid(period, 0.0);
     double a_stamp = NAN, a_noise = 0.0, sum_squares = 0.0;
     long samples = 0;
     double next_grid = 0.0;
@@ -95,7 +95,7 @@ TEST(MessageNoise, AFollowedGridIsJudgedByTheNoiseItsSamplesHold) {
 // messages came out 0.04 % off on a recording).
 TEST(MessageNoise, GridPointsOnTheMessagesStampsAreCountedOnce) {
   MessageNoise messages;
-  messages.followGrid(0.5e-3);
+  messages.followGrid(0.5e-3, 0.0);
   for (int i = 0; i < 100000; ++i) messages.add(1.7e9 + i * kInterval, smooth(i * kInterval));
   // 1e-4: the stamps themselves are rounded to 0.24 us at 1.7e9 s; the quotient's rounding lost 1600 of the
   // 200000 points and read 1.2e-3 low.

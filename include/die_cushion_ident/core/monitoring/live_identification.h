@@ -91,7 +91,7 @@ class LiveIdentification {
   const IdentificationConfig& config() const { return config_; }
   const IdentificationPipeline& pipeline() const { return *pipeline_; }
   /// The identifier's estimate with each std the larger of its own (the regression's Newey-West sandwich)
-  /// and the estimate's scatter over the last minute of press cycles (EstimateScatter): what is published.
+  /// and the estimate's scatter over the last 50 s of press cycles (EstimateScatter): what is published.
   HydraulicEstimate estimate() const;
   const LiveModelMonitor& monitor() const { return *monitor_; }
   /// The clock offsets' state for the timing diagnostic (joint fields left to the owner).

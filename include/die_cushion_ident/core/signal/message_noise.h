@@ -26,8 +26,10 @@ class MessageNoise {
   /// The mean interval between consecutive messages [s]; NaN until two.
   double meanInterval() const;
   /// Follows the grid t_k = k * period from the next message on: how far each grid point lies between the
-  /// two messages it is interpolated from (forGrid). A new period starts the count over.
-  void followGrid(double period);
+  /// two messages it is interpolated from (forGrid). `stamp_offset` [s] is what the pipeline subtracts from
+  /// the messages' stamps before resampling (the topic's delay), so that the grid is met on its own time
+  /// base. A new grid starts the count over.
+  void followGrid(double period, double stamp_offset);
   /// The noise a grid of this period is to be compared with, where neighbouring grid samples share messages
   /// (a period below 1.8 message intervals): their second differences then read the noise low (7 times at
   /// 0.5 ms from 1 kHz, 10 % at 1 ms from 1 kHz with 50 us of jitter). It is the noise each grid sample
@@ -48,6 +50,7 @@ class MessageNoise {
   double interval_sum_ = 0.0;
   long intervals_ = 0;
   double grid_period_ = 0.0;  // 0: no grid followed
+  double grid_offset_ = 0.0;  // [s] subtracted from the stamps for the grid
   double share_sum_ = 0.0;
   long shares_ = 0;
 };
