@@ -15,9 +15,9 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <iostream>
 #include <memory>
 #include <optional>
-#include <iostream>
 #include <set>
 #include <sstream>
 
@@ -29,6 +29,7 @@
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
 #include "die_cushion_ident/core/analysis/settings_from_recording.h"
+#include "die_cushion_ident/core/util/batch_pipe.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
 
@@ -243,8 +244,15 @@ bool decodeInput(const BagStreamReader::Message& m, int s, JointSelector& joints
   return decoded;
 }
 
+// A topic of the wrong type: the reading stops (and the analysis's thread with it) before the tool exits.
+struct WrongTopicType {
+  std::string message;
+};
+
 // Feeds the input topics of `path` to `analysis` in recorded order (BagStreamReader: memory independent of
-// the recording's length, damage ends the reading with a reason); counts per topic in `input`.
+// the recording's length, damage ends the reading with a reason); counts per topic in `input`. The analysis
+// takes the messages on a thread of its own while this one reads and decodes the next (BatchPipe): one after
+// the other, an hour's bag took the reading's 5 s plus the pipeline's.
 BagPass readInputs(const std::string& path, const std::string names[], const std::string& joint_name,
                    SurveyThenAnalysis& analysis, AnalysisInput& input,
                    const std::function<void(const std::string&)>& log) {
@@ -265,13 +273,15 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   std::uint64_t done = 0;
   sensor_msgs::JointState joint_state;
   InputConnections connections(names);
+  BatchPipe<std::pair<InputStream, StreamSample>> to_analysis(
+      [&analysis](const std::pair<InputStream, StreamSample>& m) { analysis.push(m.first, m.second); });
   const auto on_connection = [&](const BagStreamReader::Connection& c) {
     pass.listing += "\n  " + c.topic + " (" + c.datatype + ")";
     const int s = connections.streamOf(c);
     if (s < 0) return;
     if (c.datatype != kInputTypes[s]) {
-      fail(3, "topic " + names[s] + " has type " + c.datatype + ", expected " + kInputTypes[s] +
-                  " (set the topics in the config file if the inputs are elsewhere)");
+      throw WrongTopicType{"topic " + names[s] + " has type " + c.datatype + ", expected " + kInputTypes[s] +
+                           " (set the topics in the config file if the inputs are elsewhere)"};
     }
     pass.present.insert(names[s]);
   };
@@ -287,7 +297,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
     ++input.messages[s];
     StreamSample sample{0.0, 0.0, NAN};
     if (!decodeInput(m, s, joints, joint_state, sample, pass, input)) return;
-    analysis.push(static_cast<InputStream>(s), sample);
+    to_analysis.push({static_cast<InputStream>(s), sample});
     // Progress every 2 s on long bags.
     if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
       last_report = std::chrono::steady_clock::now();
@@ -295,7 +305,13 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
           std::to_string(done) + " messages)");
     }
   };
-  if (!reader->read(on_message, on_connection)) pass.read_error = reader->error();
+  try {
+    if (!reader->read(on_message, on_connection)) pass.read_error = reader->error();
+  } catch (const WrongTopicType& wrong) {
+    to_analysis.finish();
+    fail(3, wrong.message);
+  }
+  to_analysis.finish();  // the analysis's exception, if any, from here on this thread
   pass.damage = reader->damage();
   pass.messages_missing = reader->messagesMissing();
   pass.cut_off = reader->cutOff();
@@ -561,7 +577,7 @@ int analyseAndWrite(OfflineAnalysis& analysis, const Options& options, const Ide
 int run(int argc, char** argv) {
   const Options options = parseArguments(argc, argv);
   const std::function<void(const std::string&)> log = [&](const std::string& line) {
-    if (!options.quiet) std::cerr << "analyze_bag: " << line << "\n";
+    if (!options.quiet) std::cerr << ("analyze_bag: " + line + "\n");  // one write: two threads log
   };
   std::vector<AnalysisWarning> warnings;
   Configuration configuration = loadConfiguration(options, &warnings);
