@@ -257,7 +257,10 @@ constexpr double kFreeRunOffsetFloor = 1e-4;
 // no sandwich std) took the settings from 0.42-0.76 s to 0.34-0.45 s with no offset of 24 late-stamp
 // recordings moved by more than 0.007 ms; 6000 took the refinement from 0.05-0.12 s to 0.026-0.07 s, and
 // over 60 late-stamp recordings (4 classes x 3 plants x clean and 4 effects, position 10 ms and valve 5 ms
-// late) no offset moved by more than 0.01 ms (all within 0.19 ms of the truth, as before).
+// late) no offset moved by more than 0.01 ms (all within 0.19 ms of the truth, as before). 4000 (tried
+// 2026-11-26 for the settings' cost) moved those offsets by at most 0.013 ms, but a clean small stiff press
+// with its position at 500 Hz, which the free run is most sensitive to, then ran 1.89 times the noise
+// (1.54 with 6000): not taken.
 constexpr std::size_t kDelaySamples = 6000;
 
 // The position topic's clock offset refined by the free run. On a fast press the free run is so sensitive to
