@@ -317,13 +317,16 @@ TEST_F(PressClasses, FalseAlarmsOnCleanPressesStayAtTheSignificance) {
   const int recordings = requested ? std::max(4, std::atoi(requested)) : 8;
   int alarms = 0;
   std::vector<double> p_values;  // every library candidate's held-out test, before Holm
+  std::map<std::string, std::vector<double>> by_class;
   for (int k = 0; k < recordings; ++k) {
     const Case c{kClasses[k % kClasses.size()], "none", "", 10 + k / static_cast<int>(kClasses.size()), 100 + k};
     const Recorded r = record(c);
     const Analysis a = analyze(r, kWork + "/" + c.name());
     ASSERT_EQ(a.status, 0) << a.output;
     for (const auto& candidate : a.summary["candidates"]) {
-      if (candidate["p_value"]) p_values.push_back(candidate["p_value"].as<double>());
+      if (!candidate["p_value"]) continue;
+      p_values.push_back(candidate["p_value"].as<double>());
+      by_class[c.press].push_back(p_values.back());
     }
     const std::string missing = missingVerdicts(a.summary);
     if (!missing.empty()) {
@@ -345,6 +348,11 @@ TEST_F(PressClasses, FalseAlarmsOnCleanPressesStayAtTheSignificance) {
     std::printf("held-out t test on clean presses: p < %.2f in %d of %d candidate tests (%.1f %%, 95 %% interval "
                 "%.1f-%.1f %%)\n", level, rejected, tests, 100.0 * rejected / std::max(tests, 1), 100.0 * lo,
                 100.0 * hi);
+    for (const auto& [press, ps] : by_class) {
+      const auto below = std::count_if(ps.begin(), ps.end(), [&](double p) { return p < level; });
+      std::printf("  %-16s p < %.2f in %d of %d\n", press.c_str(), level, static_cast<int>(below),
+                  static_cast<int>(ps.size()));
+    }
   }
   EXPECT_LE(low, 0.05) << "the rate is not above the significance";
   if (recordings < 40) {
