@@ -249,6 +249,23 @@ struct WrongTopicType {
   std::string message;
 };
 
+std::unique_ptr<BagStreamReader> openBag(const std::string& path) {
+  try {
+    return std::make_unique<BagStreamReader>(path);
+  } catch (const std::exception& e) {
+    fail(3, std::string("cannot open bag: ") + e.what());
+  }
+}
+
+// What the reader found besides the messages: damage, messages the index lists but no chunk holds, a cut.
+void keepReadersFindings(const BagStreamReader& reader, BagPass& pass) {
+  pass.damage = reader.damage();
+  pass.messages_missing = reader.messagesMissing();
+  pass.cut_off = reader.cutOff();
+  pass.data_lost = reader.dataLost();
+  pass.bytes_read = reader.bytesRead();
+}
+
 // Feeds the input topics of `path` to `analysis` in recorded order (BagStreamReader: memory independent of
 // the recording's length, damage ends the reading with a reason); counts per topic in `input`. The analysis
 // takes the messages on a thread of its own while this one reads and decodes the next (BatchPipe): one after
@@ -258,12 +275,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
                    const std::function<void(const std::string&)>& log) {
   BagPass pass;
   JointSelector joints(joint_name);
-  std::unique_ptr<BagStreamReader> reader;
-  try {
-    reader = std::make_unique<BagStreamReader>(path);
-  } catch (const std::exception& e) {
-    fail(3, std::string("cannot open bag: ") + e.what());
-  }
+  const std::unique_ptr<BagStreamReader> reader = openBag(path);
   pass.file_size = reader->fileSize();
   // A hint from the index, bounded by what the file can hold (a message is at least ~40 bytes on disk).
   analysis.expect(reader->indexedSpan());
@@ -312,11 +324,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
     fail(3, wrong.message);
   }
   to_analysis.finish();  // the analysis's exception, if any, from here on this thread
-  pass.damage = reader->damage();
-  pass.messages_missing = reader->messagesMissing();
-  pass.cut_off = reader->cutOff();
-  pass.data_lost = reader->dataLost();
-  pass.bytes_read = reader->bytesRead();
+  keepReadersFindings(*reader, pass);
   pass.joint_ambiguity = joints.ambiguity();
   return pass;
 }
