@@ -18,6 +18,9 @@ APT_PACKAGES=(
 
 log() { printf '\033[1m[die_cushion_ident]\033[0m %s\n' "$*" >&2; }
 
+# The median of the numbers on standard input, one a line (the measuring scripts' runs).
+median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
+
 ensure_dependencies() {
   local missing=()
   for p in "${APT_PACKAGES[@]}"; do
