@@ -82,7 +82,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   HydraulicEstimate all;
   if (enough) {
     judged.held_out =
-        heldOutErrors(grid, strokes, extended, options.split(strokes.cycles), side_by_side, &all);
+        heldOutErrors(grid, strokes, extended, options.split(strokes.cycles), side_by_side, &all, &base);
   } else {
     all = fitOnCycles(grid, strokes, extended, INT_MIN, INT_MAX);
   }
@@ -106,7 +106,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
     return judged;
   }
   judged.physics = physics;
-  const HeldOutComparison test = compareHeldOut(base, judged.held_out, options.significance);
+  const HeldOutComparison test = compareHeldOut(grid, strokes, base, judged.held_out, options.significance);
   candidate.error_reduction = test.error_reduction;
   candidate.t_statistic = test.t_statistic;
   candidate.p_value = test.p_value;
@@ -315,6 +315,8 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   // The folds side by side: nothing else runs yet (one fold after the other left a core idle for 0.7 s/h).
   HeldOutErrors current =
       enough ? heldOutErrors(grid, strokes, config, split, options.jobs != 1) : HeldOutErrors();
+  // The base's free runs kept, so that each extension's own run gives its adjustment (compareHeldOut).
+  if (enough) keepPredictions(grid, strokes, &current);
   ranking.base_error_rms = current.rms;
   std::vector<Judged> round = judgeLibraryEffects(grid, strokes, config, current, enough, options);
   // The staircase: add the most explanatory missing effect, judge the rest against the extended model,
@@ -326,6 +328,7 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   const auto add = [&](Judged top, const std::string& together_with) {
     model.effects.push_back(top.candidate.effect);
     current = std::move(top.held_out);
+    keepPredictions(grid, strokes, &current);
     if (!ranking.steps.empty() && together_with.empty()) {
       top.candidate.explanation += " (after adding " + quotedList(ranking.steps) + ")";
     }

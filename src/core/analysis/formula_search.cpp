@@ -346,8 +346,9 @@ std::optional<BalanceScreen> screenOnCycles(const std::vector<GridSample>& grid,
 // and the free-run refinement, as on all cycles): the cycles a fold is tested on never took part in
 // choosing what is tested on them. Empty where a fold's screen finds no physical breakpoint for the shape.
 std::optional<HeldOutErrors> heldOutErrorsNested(const std::vector<GridSample>& grid,
-                                                 const StrokeSegmentation& strokes, const IdentificationConfig& model,
-                                                 const FormulaTerm& term, const FormulaProposal& proposal,
+                                                 const StrokeSegmentation& strokes,
+                                                 const IdentificationConfig& model, const FormulaTerm& term,
+                                                 const FormulaProposal& proposal, const HeldOutErrors& base,
                                                  const EffectRankingOptions& ranking,
                                                  const FormulaSearchOptions& options) {
   const int split = ranking.split(strokes.cycles);
@@ -370,7 +371,7 @@ std::optional<HeldOutErrors> heldOutErrorsNested(const std::vector<GridSample>& 
     folds[which].custom_effects.push_back(proposal.name + "=" + chosen.expression());
   }
   try {
-    return heldOutErrors(grid, strokes, folds, split);
+    return heldOutErrors(grid, strokes, folds, split, false, &base);
   } catch (const std::invalid_argument&) {
     return std::nullopt;  // a fold's breakpoint leaves a term that is zero where the effect is probed
   }
@@ -397,7 +398,8 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
     theta = p.value;
     proposal.parameters.push_back(p);
   }
-  const std::optional<HeldOutErrors> nested = heldOutErrorsNested(grid, strokes, model, term, proposal, ranking, options);
+  const std::optional<HeldOutErrors> nested =
+      heldOutErrorsNested(grid, strokes, model, term, proposal, base, ranking, options);
   if (!nested) {
     proposal.verdict = Verdict::kInconclusive;
     proposal.explanation = term.explanation() + "; on one half of the cycles alone the screen finds no physical "
@@ -405,7 +407,7 @@ FormulaProposal prove(const std::vector<GridSample>& grid, const StrokeSegmentat
     return proposal;
   }
   const HeldOutErrors& with = *nested;
-  const HeldOutComparison test = compareHeldOut(base, with, ranking.significance);
+  const HeldOutComparison test = compareHeldOut(grid, strokes, base, with, ranking.significance);
   proposal.held_out = with;
   proposal.error_reduction = test.error_reduction;
   proposal.held_out_error_rms = with.rms;
@@ -527,8 +529,8 @@ std::vector<std::string> supersededSteps(const std::vector<GridSample>& grid,
   for (const auto& step : ranking->steps) {
     IdentificationConfig without = full;
     without.effects.erase(std::find(without.effects.begin(), without.effects.end(), step.add));
-    const HeldOutComparison keep =
-        compareHeldOut(heldOutErrors(grid, strokes, without, split), with_all, ranking_options.significance);
+    const HeldOutComparison keep = compareHeldOut(grid, strokes, heldOutErrors(grid, strokes, without, split),
+                                                  with_all, ranking_options.significance);
     if (keep.error_reduction >= ranking_options.missing_reduction && keep.significant) continue;
     superseded.push_back(step.add);
     for (auto& c : ranking->candidates) {

@@ -81,25 +81,36 @@ ParameterVector refinedOnTraining(const std::vector<GridSample>& grid,
 
 // Each held-out cycle's free-run sum of squared errors and its samples, the model run free from each
 // cycle's start: a cycle's error is its own, not carried over from the one before.
+// With `reference`, each cycle's mean square difference from it goes to `adjustment`.
 void addHeldOutSquares(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                        const HydraulicModel& model, const ParameterVector& theta, double min_pressure,
-                       int test_first, int test_last, std::vector<double>& sum, std::vector<int>& count) {
+                       int test_first, int test_last, std::vector<double>& sum, std::vector<int>& count,
+                       const std::vector<float>* reference, std::vector<double>& adjustment) {
   for (int c = test_first; c <= test_last; ++c) {
     const auto [begin, end] = strokes.range(c, c);
-    const SquaredErrors cycle = freeRunSquaredErrors(grid, begin, end, model, theta, min_pressure);
+    const SquaredErrors cycle = freeRunSquaredErrors(grid, begin, end, model, theta, min_pressure, reference);
     sum[c] += cycle.sum;
     count[c] += static_cast<int>(cycle.samples);
+    if (reference && cycle.differences > 0)
+      adjustment[c] = cycle.difference_sum / static_cast<double>(cycle.differences);
   }
 }
 
 HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                    const std::array<const IdentificationConfig*, 2>& fold_configs, int split,
-                                   bool side_by_side, std::unique_ptr<HydraulicIdentifier> (&fits)[2]) {
+                                   bool side_by_side, std::unique_ptr<HydraulicIdentifier> (&fits)[2],
+                                   const HeldOutErrors* base) {
   HeldOutErrors result;
   result.cycle_rms.assign(strokes.cycles, std::numeric_limits<double>::quiet_NaN());
   // Each fold fills only its own held-out cycles' sums.
   std::vector<double> sum(strokes.cycles, 0.0);
   std::vector<int> count(strokes.cycles, 0);
+  const std::vector<float>* reference = base && base->predictions ? base->predictions.get() : nullptr;
+  if (reference) {
+    result.cycle_adjustment.assign(strokes.cycles, std::numeric_limits<double>::quiet_NaN());
+    result.adjusted_against = reference;
+  }
+  auto folds = std::make_shared<std::array<HeldOutErrors::Fold, 2>>();
   const auto fold = [&](int which) {
     const IdentificationConfig& config = *fold_configs[which];
     const HydraulicModel model =
@@ -111,7 +122,9 @@ HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const St
                                       ? refinedOnTraining(grid, strokes.range(fit_first, fit_last), model,
                                                           fits[which]->estimate(), config)
                                       : fits[which]->estimate().values();
-    addHeldOutSquares(grid, strokes, model, theta, config.min_pressure, test_first, test_last, sum, count);
+    addHeldOutSquares(grid, strokes, model, theta, config.min_pressure, test_first, test_last, sum, count,
+                      reference, result.cycle_adjustment);
+    (*folds)[which] = {config, theta, test_first, test_last};
   };
   std::future<void> second = std::async(side_by_side ? std::launch::async : std::launch::deferred, fold, 1);
   fold(0);
@@ -125,14 +138,85 @@ HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const St
     total_n += count[c];
   }
   result.rms = total_n > 0 ? std::sqrt(total / total_n) : 0.0;
+  result.folds = std::move(folds);
   return result;
+}
+
+// Per cycle, the mean square difference of two free runs (NaN where they never run together).
+std::vector<double> meanSquareDifferences(const StrokeSegmentation& strokes, const std::vector<float>& a,
+                                          const std::vector<float>& b) {
+  std::vector<double> differences(strokes.cycles, std::numeric_limits<double>::quiet_NaN());
+  for (int c = 0; c < strokes.cycles; ++c) {
+    const auto [begin, end] = strokes.range(c, c);
+    double sum = 0.0;
+    std::size_t n = 0;
+    for (std::size_t i = begin; i < end && i < a.size() && i < b.size(); ++i) {
+      if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
+      sum += (static_cast<double>(a[i]) - b[i]) * (static_cast<double>(a[i]) - b[i]);
+      ++n;
+    }
+    if (n > 0) differences[c] = sum / static_cast<double>(n);
+  }
+  return differences;
+}
+
+// The adjustment of `with` against `base`: accumulated while `with` ran, or from both models run again.
+std::vector<double> adjustmentOf(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                 const HeldOutErrors& base, const HeldOutErrors& with) {
+  if (with.adjusted_against && with.adjusted_against == base.predictions.get()) return with.cycle_adjustment;
+  if (!base.folds || !with.folds) return {};
+  const std::vector<float> base_runs =
+      base.predictions ? *base.predictions : heldOutPredictions(grid, strokes, base);
+  return meanSquareDifferences(strokes, base_runs, heldOutPredictions(grid, strokes, with));
+}
+
+// Which of the two held-out groups a cycle is in (the cycles before `split`, the rest), and on how many
+// cycles each group's fit was trained.
+struct FoldSizes {
+  int split = 0;
+  std::array<int, 2> trained = {0, 0};
+  int foldOf(int cycle) const { return cycle < split ? 0 : 1; }
+};
+
+FoldSizes foldSizes(const HeldOutErrors& base, const HeldOutErrors& with) {
+  FoldSizes sizes;
+  const HeldOutErrors& known = with.folds ? with : base;
+  if (known.folds) {
+    const auto& f = *known.folds;
+    // The fold that tests the first cycles trained on the others, and the other way round.
+    const int first = f[0].test_first <= f[1].test_first ? 0 : 1;
+    sizes.split = f[first].test_last + 1;
+    sizes.trained = {f[1 - first].test_last - f[1 - first].test_first + 1,
+                     f[first].test_last - f[first].test_first + 1};
+  } else {
+    const int cycles = static_cast<int>(std::min(base.cycle_rms.size(), with.cycle_rms.size()));
+    sizes.split = cycles / 2;
+    sizes.trained = {cycles - sizes.split, sizes.split};
+  }
+  return sizes;
+}
+
+// Nadeau and Bengio's correction for held-out units that share a fit: every cycle a fold tests is judged
+// with the same fitted extension, so their gains share that fit's noise, of variance about 1/n_train of
+// one cycle's. The mean's variance is then s^2/n (1 + sum_f n_test,f^2 / (n n_train,f)): twice the naive
+// one for two equal halves (measured on 200 clean recordings: 1.9, doc/model_adequacy.md).
+double sharedFitInflation(const std::array<int, 2>& tested, const FoldSizes& folds) {
+  const int n = tested[0] + tested[1];
+  double inflation = 1.0;
+  for (int f = 0; f < 2; ++f) {
+    if (tested[f] > 0 && folds.trained[f] > 0) {
+      inflation += static_cast<double>(tested[f]) * tested[f] / (static_cast<double>(n) * folds.trained[f]);
+    }
+  }
+  return inflation;
 }
 
 }  // namespace
 
 SquaredErrors freeRunSquaredErrors(const std::vector<GridSample>& grid, std::size_t begin, std::size_t end,
                                    const HydraulicModel& model, const ParameterVector& theta,
-                                   double min_pressure) {
+                                   double min_pressure, const std::vector<float>* reference,
+                                   std::vector<float>* predictions) {
   SquaredErrors errors;
   FreeRunPressure free_run(model, min_pressure);
   for (std::size_t i = begin; i < end && i < grid.size(); ++i) {
@@ -140,50 +224,90 @@ SquaredErrors freeRunSquaredErrors(const std::vector<GridSample>& grid, std::siz
     if (i == begin) g.discontinuity = true;
     const GridSample* next = i + 1 < end && i + 1 < grid.size() ? &grid[i + 1] : nullptr;
     const double p = free_run.step(g, theta, next);
-    if (!std::isfinite(p) || free_run.anchoredThisStep() || !std::isfinite(g.p)) continue;
+    if (!std::isfinite(p) || free_run.anchoredThisStep()) continue;
+    if (predictions && i < predictions->size()) (*predictions)[i] = static_cast<float>(p);
+    if (reference && i < reference->size() && std::isfinite((*reference)[i])) {
+      errors.difference_sum += (p - (*reference)[i]) * (p - (*reference)[i]);
+      ++errors.differences;
+    }
+    if (!std::isfinite(g.p)) continue;
     errors.sum += (g.p - p) * (g.p - p);
     ++errors.samples;
   }
   return errors;
 }
 
+std::vector<float> heldOutPredictions(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                      const HeldOutErrors& errors) {
+  std::vector<float> predictions(grid.size(), std::numeric_limits<float>::quiet_NaN());
+  if (!errors.folds) return predictions;
+  for (const HeldOutErrors::Fold& f : *errors.folds) {
+    const HydraulicModel model =
+        HydraulicModel::fromNames(f.config.geometry, f.config.effects, f.config.custom_effects);
+    for (int c = f.test_first; c <= f.test_last; ++c) {
+      const auto [begin, end] = strokes.range(c, c);
+      freeRunSquaredErrors(grid, begin, end, model, f.theta, f.config.min_pressure, nullptr, &predictions);
+    }
+  }
+  return predictions;
+}
+
+void keepPredictions(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                     HeldOutErrors* errors) {
+  if (errors->predictions || !errors->folds) return;
+  errors->predictions =
+      std::make_shared<const std::vector<float>>(heldOutPredictions(grid, strokes, *errors));
+}
+
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                             const IdentificationConfig& config, int split, bool side_by_side,
-                            HydraulicEstimate* fitted_on_both) {
+                            HydraulicEstimate* fitted_on_both, const HeldOutErrors* base) {
   std::unique_ptr<HydraulicIdentifier> fits[2];
-  HeldOutErrors result = heldOutErrorsOfFolds(grid, strokes, {&config, &config}, split, side_by_side, fits);
+  HeldOutErrors result =
+      heldOutErrorsOfFolds(grid, strokes, {&config, &config}, split, side_by_side, fits, base);
   if (fitted_on_both) *fitted_on_both = fits[0]->combinedEstimate(*fits[1]);
   return result;
 }
 
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                            const std::array<IdentificationConfig, 2>& fold_configs, int split, bool side_by_side) {
+                            const std::array<IdentificationConfig, 2>& fold_configs, int split,
+                            bool side_by_side, const HeldOutErrors* base) {
   std::unique_ptr<HydraulicIdentifier> fits[2];
-  return heldOutErrorsOfFolds(grid, strokes, {&fold_configs[0], &fold_configs[1]}, split, side_by_side, fits);
+  return heldOutErrorsOfFolds(grid, strokes, {&fold_configs[0], &fold_configs[1]}, split, side_by_side, fits,
+                              base);
 }
 
-HeldOutComparison compareHeldOut(const HeldOutErrors& base, const HeldOutErrors& with, double significance) {
+HeldOutComparison compareHeldOut(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                 const HeldOutErrors& base, const HeldOutErrors& with, double significance) {
   HeldOutComparison result;
   result.error_reduction = base.rms > 0.0 ? 1.0 - with.rms / base.rms : 0.0;
   result.base_rms = base.rms;
   result.with_rms = with.rms;
+  const std::vector<double> adjustment = adjustmentOf(grid, strokes, base, with);
+  const FoldSizes folds = foldSizes(base, with);
   // Paired by cycle id: a cycle that one model could not run does not shift the others.
-  std::vector<double> log_ratios;
+  std::vector<double> gains;
+  std::array<int, 2> tested = {0, 0};
   for (std::size_t c = 0; c < base.cycle_rms.size() && c < with.cycle_rms.size(); ++c) {
-    if (std::isfinite(with.cycle_rms[c]) && std::isfinite(base.cycle_rms[c])) {
-      log_ratios.push_back(std::log(std::max(with.cycle_rms[c], 1e-9) / std::max(base.cycle_rms[c], 1e-9)));
-    }
+    const double base_square = base.cycle_rms[c] * base.cycle_rms[c];
+    const double with_square = with.cycle_rms[c] * with.cycle_rms[c];
+    if (!std::isfinite(base_square) || !std::isfinite(with_square) || !(base_square > 0.0)) continue;
+    const double adjust = c < adjustment.size() && std::isfinite(adjustment[c]) ? adjustment[c] : 0.0;
+    gains.push_back((base_square - with_square + adjust) / base_square);
+    ++tested[folds.foldOf(static_cast<int>(c))];
   }
-  const int n = static_cast<int>(log_ratios.size());
+  const int n = static_cast<int>(gains.size());
   result.cycles = n;
   if (n == 0) return result;
   double mean = 0.0, squares = 0.0;
-  for (double d : log_ratios) {
+  for (double d : gains) {
     mean += d / n;
     squares += d * d;
   }
   const double sd = n > 1 ? std::sqrt(std::max(squares - n * mean * mean, 0.0) / (n - 1)) : 0.0;
-  result.t_statistic = sd > 0.0 ? mean / (sd / std::sqrt(n)) : (mean < 0 ? -1e9 : 1e9);
+  const double standard_error = sd / std::sqrt(n) * std::sqrt(sharedFitInflation(tested, folds));
+  // Negative where the extension predicts better, as the verdicts read it.
+  result.t_statistic = standard_error > 0.0 ? -mean / standard_error : (mean > 0 ? -1e9 : 1e9);
   if (n > 1) {
     // Exact Student quantile (the Cornish-Fisher expansion used before was 1.8 % low at 3 degrees of
     // freedom).

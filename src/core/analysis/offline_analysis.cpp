@@ -429,6 +429,7 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
       tell("searching for a formula for the error the library leaves");
       addFormulaProposals(grid_, r.strokes, config_, &r.ranking);
     }
+    r.ranking.recommended_held_out.predictions.reset();  // the base's free runs: 7 MB an hour, no longer read
     if (r.strokes.cycles == 0) {
       cannotRun(r,
                 "no complete press stroke (impact, drawing, return to the top) in the recording: the effect "

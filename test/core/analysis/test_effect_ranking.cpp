@@ -262,6 +262,32 @@ TEST(EffectRanking, HolmsStepDownRejectsInOrderAndStopsAtTheFirstKept) {
   EXPECT_EQ(holmRejected({std::nan(""), 0.001}, 0.05), (std::vector<bool>{false, true}));
 }
 
+// The held-out t test's variance counts the fit a fold's cycles share (Nadeau and Bengio): for two equal
+// halves twice the naive one, and less where a fold has fewer held-out cycles than its partner trained on.
+TEST(EffectRanking, TheHeldOutTestCountsTheFitAFoldsCyclesShare) {
+  HeldOutErrors base, with;
+  base.cycle_rms.assign(8, 1.0);
+  with.cycle_rms = {0.9, 0.8, 0.95, 0.7, 0.85, 0.9, 0.75, 0.8};  // no predictions kept: gains 1 - with^2
+  const auto naiveT = [&](const std::vector<int>& cycles) {
+    double mean = 0.0, squares = 0.0;
+    for (int c : cycles) mean += (1.0 - with.cycle_rms[c] * with.cycle_rms[c]) / cycles.size();
+    for (int c : cycles) squares += std::pow(1.0 - with.cycle_rms[c] * with.cycle_rms[c] - mean, 2);
+    return -mean / std::sqrt(squares / (cycles.size() - 1) / cycles.size());
+  };
+  const std::vector<GridSample> grid;
+  const StrokeSegmentation strokes;
+  const HeldOutComparison halves = compareHeldOut(grid, strokes, base, with, 0.05);
+  EXPECT_EQ(halves.cycles, 8);
+  EXPECT_NEAR(halves.t_statistic, naiveT({0, 1, 2, 3, 4, 5, 6, 7}) / std::sqrt(2.0), 1e-9);
+  // Two cycles of the first half not run: 2 and 4 held out against fits on 4 cycles each.
+  with.cycle_rms[0] = with.cycle_rms[1] = std::nan("");
+  const HeldOutComparison fewer = compareHeldOut(grid, strokes, base, with, 0.05);
+  EXPECT_EQ(fewer.cycles, 6);
+  EXPECT_NEAR(fewer.t_statistic, naiveT({2, 3, 4, 5, 6, 7}) / std::sqrt(1.0 + 4.0 / 24.0 + 16.0 / 24.0),
+              1e-9);
+  EXPECT_LT(fewer.p_value, 0.05);
+}
+
 TEST(EffectRanking, TheFoldsCombinedGiveTheFitOnAllCycles) {
   for (const std::string effect : {"leakage", "valve_overlap"}) {
     const SimulatorConfig plant = testing::randomPlant(71, {effect});

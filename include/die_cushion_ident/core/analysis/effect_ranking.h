@@ -134,8 +134,8 @@ bool withinResolution(double error_rms, double noise_rms, const EffectRankingOpt
 /// correlated samples, so a per-sample test would call every effect significant): the recording is split
 /// into its first and second half of press cycles; each model is fitted without forgetting on one half and
 /// run free on the other, both ways. Per held-out cycle the free-run error of the extended model is
-/// compared with the configured model's; cycles are the independent units of a paired one-sided t test on
-/// the log error ratio.
+/// compared with the configured model's; cycles are the units of a paired one-sided t test on Clark and
+/// West's adjusted error gain, its variance corrected for the fits a fold's cycles share (compareHeldOut).
 EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                 const IdentificationConfig& config, const EffectRankingOptions& options = {});
 
