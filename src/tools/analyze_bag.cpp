@@ -464,14 +464,16 @@ bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStrea
 // The clock offsets estimated on the whole recording; where they matter, they are set in `config` for a
 // second reading.
 TopicDelayEstimate estimateClockOffsets(OfflineAnalysis& analysis, IdentificationConfig* config,
+                                        bool valve_configured,
                                         const std::function<void(const std::string&)>& log) {
   log("estimating the clock offsets between the topics");
-  const TopicDelayEstimate delays = analysis.estimateTopicDelays();
+  TopicDelayEstimate delays = analysis.estimateTopicDelays();
   if (delays.significant(config->resampler.sample_period)) {
     config->topic_delays = delays.delays;
     log("position stamps " + milliseconds(delays.delays[1]) + ", valve stamps " + milliseconds(delays.delays[2]) +
         " against pressure: reading again with the stamps corrected");
   }
+  if (!valve_configured && !spoolMeasured(analysis.grid())) addValveModelTiming(config->valve, &delays);
   return delays;
 }
 
@@ -503,7 +505,16 @@ void reportClockOffsets(const std::optional<TopicDelayEstimate>& delays, bool ap
   for (int s = 1; s < kInputStreamCount; ++s) {
     if (!(std::abs(delays->delays[s]) > kLargeTopicDelay)) continue;
     const std::string topic = std::string("the ") + inputStreamName(static_cast<InputStream>(s));
-    if (applied) {
+    if (s == static_cast<int>(InputStream::kValve) && delays->valve_model_timing > 0.0) {
+      result->warnings.push_back(
+          {WarningCode::kClockOffset, "the valve topic's stamps, or the valve's own timing, are " +
+                                          milliseconds(delays->delays[s]) +
+                                          " off the default valve model's (the spool is not measured, so the "
+                                          "two cannot be told apart): " +
+                                          (applied ? "corrected as one" : "not corrected") +
+                                          "; configure the valve from a sweep (valve_dead_time, "
+                                          "valve_natural_frequency) to tell them apart"});
+    } else if (applied) {
       result->warnings.push_back(
           {WarningCode::kClockOffset, topic + " topic's stamps are " + milliseconds(delays->delays[s]) +
                                           " off the pressure's (estimated from the data and corrected): its "
@@ -616,7 +627,7 @@ int run(int argc, char** argv) {
     delays = surveyed.choice()->delays;
     delays_applied = surveyed.choice()->delays_applied;
   } else if (!config.topicDelaysSet()) {
-    delays = estimateClockOffsets(*analysis, &config, log);
+    delays = estimateClockOffsets(*analysis, &config, valveModelConfigured(configured), log);
     delays_applied = delays->significant(config.resampler.sample_period);
     if (delays_applied) {
       reread = std::make_unique<SurveyThenAnalysis>(config, configured, false, options.jobs, log);

@@ -303,6 +303,11 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
 
 }  // namespace
 
+bool valveModelConfigured(const std::set<std::string>& keys) {
+  return keys.count("valve_natural_frequency") || keys.count("valve_damping") || keys.count("valve_gain") ||
+         keys.count("valve_dead_time");
+}
+
 SettingsFromRecording::SettingsFromRecording(const IdentificationConfig& config, std::set<std::string> configured_keys,
                                              double survey_seconds, std::size_t max_messages)
     : config_(config), configured_(std::move(configured_keys)), survey_seconds_(survey_seconds),
@@ -672,8 +677,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   choice.config = config_;
   std::vector<ValveSample> valve = surveyMessages(messages_, &choice.survey);
   const RecordingSurvey& survey = choice.survey;
-  const bool valve_configured = configured_.count("valve_natural_frequency") || configured_.count("valve_damping") ||
-                                configured_.count("valve_gain") || configured_.count("valve_dead_time");
+  const bool valve_configured = valveModelConfigured(configured_);
   if (!survey.spool_measured && !valve_configured)
     choice.warnings.push_back({WarningCode::kValveModel, unmodelledSpoolWarning(config_.valve)});
   // The valve model from the operation, fitted on the other core while the clock offsets are searched
@@ -701,6 +705,8 @@ SettingsChoice SettingsFromRecording::choose() const {
     } else if (choice.delays->valid) {
       choice.config.topic_delays = {0.0, 0.0, 0.0};
     }
+    // Applied (or not) on the offsets the model's spool needs; stated as clock offsets with its timing.
+    if (!survey.spool_measured && !valve_configured) addValveModelTiming(config_.valve, &*choice.delays);
   }
   if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
   ResolutionStudy study(messages_, periods, jobs_, choice);

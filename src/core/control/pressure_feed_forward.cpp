@@ -16,9 +16,7 @@ PressureFeedForward::PressureFeedForward(const HydraulicModel& model, const Para
   if (!(max_voltage > 0.0) || !std::isfinite(max_voltage)) {
     throw std::invalid_argument("feed-forward: the voltage limit must be > 0 V");
   }
-  const double omega = 2.0 * M_PI * valve.natural_frequency;
-  lead_ = std::max(0.0, (std::isfinite(valve.dead_time) ? valve.dead_time : 0.0) +
-                            (omega > 0.0 && std::isfinite(omega) ? 2.0 * valve.damping / omega : 0.0));
+  lead_ = valve.lowFrequencyDelay();
 }
 
 void PressureFeedForward::setParameters(const ParameterVector& physical) {

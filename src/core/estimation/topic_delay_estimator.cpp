@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
 
@@ -412,6 +413,17 @@ bool TopicDelayEstimate::distinguishable(double sigmas) const {
     if (std::abs(delays[s]) > sigmas * resolution[s]) return true;
   }
   return false;
+}
+
+void addValveModelTiming(const ServoValveParameters& assumed, TopicDelayEstimate* delays) {
+  if (!delays->valid || delays->valve_model_timing > 0.0) return;
+  constexpr int kValve = static_cast<int>(InputStream::kValve);
+  delays->valve_model_timing = assumed.lowFrequencyDelay() / std::sqrt(3.0);
+  delays->resolution[kValve] = std::hypot(delays->resolution[kValve], delays->valve_model_timing);
+  delays->message += formatted(
+      "; the valve's offset includes the default valve model's timing error (the spool "
+      "is not measured): +-%.2f ms",
+      1e3 * delays->valve_model_timing);
 }
 
 bool TopicDelayEstimate::significant(double sample_period) const {

@@ -239,6 +239,11 @@ HealthReport timingHealth(const TimingState& t) {
   for (double d : t.estimate->delays) largest = std::max(largest, std::abs(d));
   r.add("estimated position offset [ms]", formatted("%+.2f", t.estimate->delays[1] * 1e3));
   r.add("estimated valve offset [ms]", formatted("%+.2f", t.estimate->delays[2] * 1e3));
+  if (t.estimate->valve_model_timing > 0.0) {
+    // Without a measured spool the valve's offset also holds the default valve model's timing error.
+    r.add("valve offset uncertain by the valve model's timing [ms]",
+          formatted("+-%.2f", t.estimate->valve_model_timing * 1e3));
+  }
   if (largest > kLargeTopicDelay) {
     r.summary(HealthLevel::kWarn, "topics stamped by different clocks: up to " + formatted("%.1f ms", largest * 1e3) +
                                       " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");

@@ -340,6 +340,10 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
   }
 }
 
+bool spoolMeasured(const std::vector<GridSample>& grid) {
+  return std::any_of(grid.begin(), grid.end(), [](const GridSample& g) { return std::isfinite(g.y_drain); });
+}
+
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
     case UniformResampler::PushResult::kNonFinite:

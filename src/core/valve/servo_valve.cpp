@@ -6,6 +6,12 @@
 
 namespace die_cushion_ident {
 
+double ServoValveParameters::lowFrequencyDelay() const {
+  const double omega = 2.0 * M_PI * natural_frequency;
+  return std::max(0.0, (std::isfinite(dead_time) ? dead_time : 0.0) +
+                           (omega > 0.0 && std::isfinite(omega) ? 2.0 * damping / omega : 0.0));
+}
+
 ServoValve::ServoValve(const ServoValveParameters& parameters, double max_step)
     : parameters_(parameters), max_step_(max_step), omega_(2.0 * M_PI * parameters.natural_frequency) {
   if (!(parameters.natural_frequency > 0.0))

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "die_cushion_ident/core/analysis/settings_from_recording.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
@@ -110,6 +111,36 @@ TEST(SettingsFromRecording, WithoutAMeasuredSpoolTheConfiguredValveStays) {
   EXPECT_FALSE(c.valve.has_value());
   EXPECT_FALSE(c.valve_from_operation);
   EXPECT_DOUBLE_EQ(c.config.valve.natural_frequency, IdentificationConfig().valve.natural_frequency);
+}
+
+// Without a measured spool the valve topic's offset also holds what the default valve model's timing lacks
+// (a slow valve reads as early stamps, a fast one as late): its stated std includes that timing, so it covers
+// the truth (the clocks agree here); with the valve configured, the model is the user's and nothing is added.
+TEST(SettingsFromRecording, WithoutAMeasuredSpoolTheValveOffsetStatesTheValveModelsTiming) {
+  for (const auto& [press, variation] : {std::pair<PressClass, int>{PressClass::kLargeSoft, 7},
+                                         {PressClass::kFastMechanical, 2},
+                                         {PressClass::kSmallStiff, 4}}) {
+    SimulatorConfig plant = pressClassPlant(press, variation);
+    plant.sensors.measure_spool = false;
+    const SettingsChoice c = surveyed(plant);
+    ASSERT_TRUE(c.delays && c.delays->valid) << pressClassName(press);
+    const double offset = c.delays->delays[2], stated = c.delays->resolution[2];
+    std::printf("%s v%d: valve offset %+.2f ms +- %.2f ms (of it the default model's timing %.2f ms)\n",
+                pressClassName(press), variation, 1e3 * offset, 1e3 * stated,
+                1e3 * c.delays->valve_model_timing);
+    EXPECT_GT(c.delays->valve_model_timing, 1e-3) << pressClassName(press);
+    EXPECT_LE(std::abs(offset), 2.0 * stated)
+        << pressClassName(press) << ": the stated std covers the truth (0)";
+
+    IdentificationConfig configured;
+    configured.valve = plant.valve;
+    const SettingsChoice right =
+        surveyed(plant, {"valve_natural_frequency", "valve_damping", "valve_dead_time"}, configured);
+    ASSERT_TRUE(right.delays && right.delays->valid);
+    EXPECT_EQ(right.delays->valve_model_timing, 0.0);
+    EXPECT_NEAR(right.delays->delays[2], 0.0, 0.3e-3)
+        << pressClassName(press) << ": with its own valve model";
+  }
 }
 
 // A recording with nothing to identify (the cushion at rest) keeps the paper's settings and says so.

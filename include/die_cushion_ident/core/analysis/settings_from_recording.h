@@ -83,13 +83,17 @@ struct SettingsChoice {
 /// `survey_seconds` of messages are kept; their message rates, pressure noise and press cycles are surveyed,
 /// the valve model is fitted to the commands and spool of operation (when the spool is measured), the
 /// topics' clock offsets are estimated at the finest period the recording supports (a 2 ms grid left a
-/// small stiff chamber's 0.5 ms off), and the model is identified and run free at 2, 1, 0.5 and 0.25 ms (no finer than half the finest topic's message
-/// interval). The coarsest sample period whose free run changes by less than kResolutionShare of the
-/// pressure noise when the period halves is chosen: a coarser grid throws away what the recording holds (a
-/// fast press's 4 ms impact on the paper's 2 ms grid), a finer one only costs. The filters keep the paper's
-/// windows in time (62 ms moving average, 50 ms derivative: 31 and 25 samples at 2 ms), shortened to half
-/// the shortest drawing phase; the identification period stays 10 ms. Settings the user configured are kept
-/// and judged against the study (a warning where they leave a resolution error above the share).
+/// small stiff chamber's 0.5 ms off), and the model is identified and run free at 2, 1, 0.5 and 0.25 ms (no
+/// finer than half the finest topic's message interval). The coarsest sample period whose free run changes by
+/// less than kResolutionShare of the pressure noise when the period halves is chosen: a coarser grid throws
+/// away what the recording holds (a fast press's 4 ms impact on the paper's 2 ms grid), a finer one only
+/// costs. The filters keep the paper's windows in time (62 ms moving average, 50 ms derivative: 31 and 25
+/// samples at 2 ms), shortened to half the shortest drawing phase; the identification period stays 10 ms.
+/// Settings the user configured are kept and judged against the study (a warning where they leave a
+/// resolution error above the share). Whether the user configured the valve model (any of its keys): without
+/// a measured spool the model then is theirs to answer for, not the default's.
+bool valveModelConfigured(const std::set<std::string>& configured_keys);
+
 class SettingsFromRecording {
  public:
   static constexpr double kResolutionShare = 0.25;

@@ -20,6 +20,9 @@ struct TopicDelayEstimate {
   /// with the rows' correlation, the method's (how far the offset moves with windows half as long) and an
   /// eighth of a sample period, the interpolation's floor.
   std::array<double, kInputStreamCount> resolution = {0.0, 0.0, 0.0};
+  /// [s] the part of resolution[valve] that is the valve model's own timing (addValveModelTiming); 0 where
+  /// the spool is measured or the model is the user's.
+  double valve_model_timing = 0.0;
   bool valid = false;  ///< enough excited samples to judge
   int samples = 0;     ///< samples the estimate rests on
   std::string message;  ///< why not valid, in words
@@ -42,5 +45,14 @@ struct TopicDelayEstimate {
 /// quarter samples and by a parabola, the lowest kept. Only windows where the model holds (pressure above
 /// min_pressure, valve not saturated) and the cushion moves or the pressure changes count.
 TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config);
+
+/// Without a measured spool the balance's valve channel is the valve model's spool, so the valve topic's
+/// offset found is the clock offset plus what the model's timing lacks: a valve slower than the model reads
+/// as early stamps (a large soft chamber's 41 Hz, 3.75 ms valve against the default 80 Hz, 2 ms: -4.72 ms
+/// where the clocks agree; doc/resolution.md). Corrected, the offset still lines the model's spool up with
+/// the pressure; as a clock offset it is known only to the model's timing. Where that model is the default
+/// (no sweep, nothing configured), the valve's true low-frequency delay is taken as anywhere between 0 and
+/// twice the default's, uniformly: std = delay / sqrt(3), added to resolution[valve] in quadrature.
+void addValveModelTiming(const ServoValveParameters& assumed, TopicDelayEstimate* delays);
 
 }  // namespace die_cushion_ident

@@ -179,6 +179,9 @@ class UniformResampler {
   std::deque<Held> held_;  // messages on a candidate new time base, oldest first
 };
 
+/// Whether any grid sample holds a measured spool (its drain and supply parts are NaN otherwise).
+bool spoolMeasured(const std::vector<GridSample>& grid);
+
 /// Why a message was not taken, in words ("" for kAccepted, kRestarted and kHeld).
 const char* pushResultText(UniformResampler::PushResult result);
 

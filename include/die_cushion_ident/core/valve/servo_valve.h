@@ -14,6 +14,9 @@ struct ServoValveParameters {
   double dead_time = 0.002;         ///< T_dead [s]
   /// Largest spool speed [1/s] (pilot-flow limit); infinity = none. Large sweeps saturate it.
   double max_spool_velocity = std::numeric_limits<double>::infinity();
+  /// [s] how late the spool follows a slow command: the dead time plus the second-order lag's group delay
+  /// at low frequency, 2 D / w0 (non-finite or negative parts count 0).
+  double lowFrequencyDelay() const;
 };
 
 /// Spool position under onboard position control:
