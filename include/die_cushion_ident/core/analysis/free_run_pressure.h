@@ -12,6 +12,14 @@ namespace die_cushion_ident {
 /// is NaN): C1, exact for quadratics. The free run's interpolation of its inputs between grid samples.
 double catmullRom(double before, double a, double b, double after, double w);
 
+/// catmullRom's cubic over one interval, its coefficients computed once for the free run's six or seven
+/// stages there (the same arithmetic: the same values).
+struct CatmullRomCubic {
+  CatmullRomCubic(double before, double a, double b, double after);
+  double at(double w) const { return a + w * (ta + w * (square + w * cube)); }
+  double a, ta, square, cube;
+};
+
 /// The pressure a model predicts on its own: the volume balance
 ///
 ///   dp/dt = f(t, p) = (A v(t) - Q_v(y(t), p) - Q_extra(p, ...)) / C(p, x(t))
@@ -65,10 +73,12 @@ class FreeRunPressure {
  private:
   /// The inputs at w in [0, 1] between a and b by Catmull-Rom (its outer points: before, after).
   struct Span {
+    Span(const GridSample* before, const GridSample* a, const GridSample* b, const GridSample* after);
     const GridSample* before;
     const GridSample* a;
     const GridSample* b;
     const GridSample* after;
+    CatmullRomCubic x, v, y;  ///< position, velocity and spool between a and b
   };
   double rate(const Span& span, double w, double p, const ParameterVector& theta) const;
   void integrate(const Span& span, const ParameterVector& theta);
