@@ -79,6 +79,10 @@ struct SettingsChoice {
   double seconds_spent = 0.0;          ///< [s] wall time of choose()
 };
 
+/// Whether the user configured the valve model (any of its keys): without a measured spool the model then is
+/// theirs to answer for, not the default's.
+bool valveModelConfigured(const std::set<std::string>& configured_keys);
+
 /// The paper's settings study (§5) run on the recording itself, before the analysis: the first
 /// `survey_seconds` of messages are kept; their message rates, pressure noise and press cycles are surveyed,
 /// the valve model is fitted to the commands and spool of operation (when the spool is measured), the
@@ -90,10 +94,7 @@ struct SettingsChoice {
 /// costs. The filters keep the paper's windows in time (62 ms moving average, 50 ms derivative: 31 and 25
 /// samples at 2 ms), shortened to half the shortest drawing phase; the identification period stays 10 ms.
 /// Settings the user configured are kept and judged against the study (a warning where they leave a
-/// resolution error above the share). Whether the user configured the valve model (any of its keys): without
-/// a measured spool the model then is theirs to answer for, not the default's.
-bool valveModelConfigured(const std::set<std::string>& configured_keys);
-
+/// resolution error above the share).
 class SettingsFromRecording {
  public:
   static constexpr double kResolutionShare = 0.25;
