@@ -506,14 +506,7 @@ void reportClockOffsets(const std::optional<TopicDelayEstimate>& delays, bool ap
     if (!(std::abs(delays->delays[s]) > kLargeTopicDelay)) continue;
     const std::string topic = std::string("the ") + inputStreamName(static_cast<InputStream>(s));
     if (s == static_cast<int>(InputStream::kValve) && delays->valve_model_timing > 0.0) {
-      result->warnings.push_back(
-          {WarningCode::kClockOffset, "the valve topic's stamps, or the valve's own timing, are " +
-                                          milliseconds(delays->delays[s]) +
-                                          " off the default valve model's (the spool is not measured, so the "
-                                          "two cannot be told apart): " +
-                                          (applied ? "corrected as one" : "not corrected") +
-                                          "; configure the valve from a sweep (valve_dead_time, "
-                                          "valve_natural_frequency) to tell them apart"});
+      result->warnings.push_back({WarningCode::kClockOffset, valveTimingWarning(delays->delays[s], applied)});
     } else if (applied) {
       result->warnings.push_back(
           {WarningCode::kClockOffset, topic + " topic's stamps are " + milliseconds(delays->delays[s]) +

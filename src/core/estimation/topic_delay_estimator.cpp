@@ -426,6 +426,15 @@ void addValveModelTiming(const ServoValveParameters& assumed, TopicDelayEstimate
       1e3 * delays->valve_model_timing);
 }
 
+std::string valveTimingWarning(double valve_offset, bool corrected) {
+  return formatted(
+             "the valve topic's stamps, or the valve's own timing, are %+.2f ms off the default valve "
+             "model's (the spool is not measured, so the two cannot be told apart): ",
+             1e3 * valve_offset) +
+         (corrected ? "corrected as one" : "not corrected") +
+         "; configure the valve from a sweep (valve_dead_time, valve_natural_frequency) to tell them apart";
+}
+
 bool TopicDelayEstimate::significant(double sample_period) const {
   if (!valid) return false;
   for (double d : delays) {

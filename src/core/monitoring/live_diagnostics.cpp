@@ -244,7 +244,10 @@ HealthReport timingHealth(const TimingState& t) {
     r.add("valve offset uncertain by the valve model's timing [ms]",
           formatted("+-%.2f", t.estimate->valve_model_timing * 1e3));
   }
-  if (largest > kLargeTopicDelay) {
+  const double valve = std::abs(t.estimate->delays[2]);
+  if (valve > kLargeTopicDelay && valve >= largest && t.estimate->valve_model_timing > 0.0) {
+    r.summary(HealthLevel::kWarn, valveTimingWarning(t.estimate->delays[2], true));
+  } else if (largest > kLargeTopicDelay) {
     r.summary(HealthLevel::kWarn, "topics stamped by different clocks: up to " + formatted("%.1f ms", largest * 1e3) +
                                       " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");
   } else {

@@ -164,6 +164,28 @@ TEST(LiveModelMonitor, EstimatesTheTopicsClockOffsetOnceAndHandsItOverOnce) {
 
 // ---- the diagnostics as functions ----
 
+// A large valve offset found without a measured spool may be the default valve model's timing as much as the
+// clocks: the diagnostic says both and shows the part, as analyze_bag's warning does; a large position offset
+// keeps the clocks' words.
+TEST(LiveDiagnostics, AValveOffsetWithoutSpoolNamesTheValveModelsTiming) {
+  TopicDelayEstimate estimate;
+  estimate.valid = true;
+  estimate.delays = {0.0, 0.0, -0.0061};
+  addValveModelTiming(ServoValveParameters(), &estimate);
+  TimingState timing;
+  timing.estimate = estimate;
+  HealthReport r = timingHealth(timing);
+  EXPECT_EQ(r.level, HealthLevel::kWarn);
+  EXPECT_EQ(r.message, valveTimingWarning(-0.0061, true));
+  EXPECT_NE(r.message.find("or the valve's own timing"), std::string::npos);
+  bool shown = false;
+  for (const auto& [key, value] : r.values) shown |= key.find("valve model's timing") != std::string::npos;
+  EXPECT_TRUE(shown);
+  timing.estimate->delays[1] = 0.012;
+  r = timingHealth(timing);
+  EXPECT_NE(r.message.find("different clocks"), std::string::npos) << r.message;
+}
+
 InputState runningInput() {
   InputState in;
   in.stream = InputStream::kPressure;

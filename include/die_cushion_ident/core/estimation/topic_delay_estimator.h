@@ -55,4 +55,9 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, cons
 /// twice the default's, uniformly: std = delay / sqrt(3), added to resolution[valve] in quadrature.
 void addValveModelTiming(const ServoValveParameters& assumed, TopicDelayEstimate* delays);
 
+/// The words for a large valve offset that may be the default valve model's timing as much as the clocks
+/// (valve_model_timing > 0), `corrected` or not: the same for analyze_bag's warning and the node's
+/// diagnostic.
+std::string valveTimingWarning(double valve_offset, bool corrected);
+
 }  // namespace die_cushion_ident
