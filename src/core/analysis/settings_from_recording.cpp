@@ -74,6 +74,7 @@ IdentificationConfig atPeriod(IdentificationConfig c, double period, double shor
 std::vector<GridSample> gridAt(const IdentificationConfig& config, const Messages& messages) {
   std::vector<GridSample> grid;
   IdentificationPipeline pipeline(config);
+  pipeline.setIdentifying(false);
   pipeline.setGridCallback([&](const GridSample& g, const HydraulicIdentifier&) { grid.push_back(g); });
   for (const auto& [stream, sample] : messages) pipeline.push(stream, sample);
   pipeline.flush();
@@ -698,7 +699,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   // The clock offsets, at the finest period (the study below then runs on corrected stamps).
   if (!config_.topicDelaysSet()) {
     IdentificationConfig finest = atPeriod(choice.config, periods.back(), 0.0);
-    choice.delays = estimateTopicDelays(gridAt(finest, messages_), finest);
+    choice.delays = estimateTopicDelays(gridAt(finest, messages_), finest, jobs_);
     if (choice.delays->valid && choice.delays->distinguishable()) {
       choice.config.topic_delays = choice.delays->delays;
       choice.delays_applied = true;

@@ -61,7 +61,7 @@ void IdentificationPipeline::setValveModel(const ServoValveParameters& valve, bo
 
 void IdentificationPipeline::consume() {
   for (const GridSample& g : grid_) {
-    const bool stepped = identifier_.push(g);
+    const bool stepped = identifying_ && identifier_.push(g);
     if (on_grid_) on_grid_(g, identifier_);
     if (stepped && on_step_) on_step_(identifier_);
   }

@@ -7,6 +7,7 @@
 
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/util/formatted.h"
+#include "die_cushion_ident/core/util/parallel_for.h"
 
 namespace die_cushion_ident {
 
@@ -109,6 +110,7 @@ class BalanceCost {
         noise_variance_(std::isfinite(pressure_noise) ? pressure_noise * pressure_noise : 0.0) {
     pressure_columns_.reserve(starts_.size());
     for (std::size_t start : starts_) pressure_columns_.push_back(pressureColumns(start));
+    pressure_block_ = pressureBlock();
   }
 
   struct Fit {
@@ -142,13 +144,20 @@ class BalanceCost {
   };
 
   // The fit's residual with position and valve channels shifted [samples]. The windows' parts at the last
-  // position shift and at the last valve shift are kept: a line search along one offset moves only its own
-  // part (two thirds of the refinement's evaluations), and a curvature probe moves one. Not for several
-  // threads at once.
+  // position shift and at the last valve shift are kept with their blocks of the normal equations: a line
+  // search along one offset moves only its own part (two thirds of the refinement's evaluations), and a
+  // curvature probe moves one. Not for several threads at once.
   Fit operator()(double position_shift, double valve_shift, bool with_correlation = false) const {
-    const std::vector<PositionPart>& x =
-        cachedParts(position_cache_, position_shift, &BalanceCost::positionPart);
-    const std::vector<ValvePart>& y = cachedParts(valve_cache_, valve_shift, &BalanceCost::valvePart);
+    const PartsAt<PositionPart>& x_at = cachedParts(position_cache_, position_shift,
+                                                    &BalanceCost::positionPart, &BalanceCost::positionBlocks);
+    const PartsAt<ValvePart>& y_at =
+        cachedParts(valve_cache_, valve_shift, &BalanceCost::valvePart, &BalanceCost::valveBlocks);
+    if (!with_correlation) {
+      Sums sums = pairSums(x_at.parts, y_at.parts, x_at.blocks, y_at.blocks, pressure_block_);
+      return solve(sums, false);
+    }
+    const std::vector<PositionPart>& x = x_at.parts;
+    const std::vector<ValvePart>& y = y_at.parts;
     Sums sums;
     if (with_correlation) sums.rows.reserve(starts_.size());
     for (std::size_t w = 0; w < starts_.size(); ++w) {
@@ -161,32 +170,32 @@ class BalanceCost {
 
   // The cost at every pair of the two lists of shifts [samples], position major. The regressors separate:
   // the position's shift moves only the first column and the left side, the valve's only the opening's
-  // columns. Each window is integrated once per position shift and once per valve shift, and the rows
-  // assembled per pair (the coarse map's 625 pairs integrated whole were half of the offsets' time); the
-  // sums are the same as operator()'s, term for term.
+  // columns. Each window is integrated once per position shift and once per valve shift, and the normal
+  // equations assembled from blocks: the pressure's own (fixed), the position's and the valve's (one per
+  // shift) and their products (one per pair: 12 products a window where the whole rank-one update took 80;
+  // the 625 pairs integrated whole were half of the offsets' time). On up to `jobs` threads (no cache kept).
   std::vector<double> costMap(const std::vector<double>& position_shifts,
-                              const std::vector<double>& valve_shifts) const {
+                              const std::vector<double>& valve_shifts, int jobs) const {
     std::vector<std::vector<PositionPart>> x(position_shifts.size());
     std::vector<std::vector<ValvePart>> y(valve_shifts.size());
-    for (std::size_t i = 0; i < position_shifts.size(); ++i) {
-      partsAt(position_shifts[i], &BalanceCost::positionPart, &x[i]);
-    }
-    for (std::size_t j = 0; j < valve_shifts.size(); ++j) {
-      partsAt(valve_shifts[j], &BalanceCost::valvePart, &y[j]);
-    }
-    std::vector<double> costs;
-    costs.reserve(position_shifts.size() * valve_shifts.size());
-    for (std::size_t i = 0; i < position_shifts.size(); ++i) {
-      for (std::size_t j = 0; j < valve_shifts.size(); ++j) {
-        Sums sums;
-        for (std::size_t w = 0; w < starts_.size(); ++w) {
-          if (x[i][w].usable && y[j][w].usable) {
-            sums.add(row(w, x[i][w], y[j][w]), x[i][w].z, x[i][w].a_begin, x[i][w].a_end, false);
-          }
-        }
-        costs.push_back(solve(sums, false).rms);
+    std::vector<Sums> x_sums(position_shifts.size()), y_sums(valve_shifts.size());
+    parallelFor(position_shifts.size() + valve_shifts.size(), jobs, [&](std::size_t k) {
+      if (k < position_shifts.size()) {
+        partsAt(position_shifts[k], &BalanceCost::positionPart, &x[k]);
+        x_sums[k] = positionBlocks(x[k]);
+      } else {
+        const std::size_t j = k - position_shifts.size();
+        partsAt(valve_shifts[j], &BalanceCost::valvePart, &y[j]);
+        y_sums[j] = valveBlocks(y[j]);
       }
-    }
+    });
+    std::vector<double> costs(position_shifts.size() * valve_shifts.size());
+    parallelFor(position_shifts.size(), jobs, [&](std::size_t i) {
+      for (std::size_t j = 0; j < valve_shifts.size(); ++j) {
+        Sums sums = pairSums(x[i], y[j], x_sums[i], y_sums[j], pressure_block_);
+        costs[i * valve_shifts.size() + j] = solve(sums, false).rms;
+      }
+    });
     return costs;
   }
   double cost(double position_shift, double valve_shift) const {
@@ -267,16 +276,19 @@ class BalanceCost {
   struct PartsAt {
     double shift = std::numeric_limits<double>::quiet_NaN();  // [samples] NaN: none kept
     std::vector<Part> parts;                                  // per window
+    Sums blocks;                                              // their own blocks of the normal equations
   };
-  // The same, kept for the last shift asked.
+  // The same, kept for the last shift asked, with their blocks (made by positionBlocks or valveBlocks).
   template <typename Part>
-  const std::vector<Part>& cachedParts(PartsAt<Part>& cache, double shift,
-                                       Part (BalanceCost::*part)(std::size_t, double) const) const {
+  const PartsAt<Part>& cachedParts(PartsAt<Part>& cache, double shift,
+                                   Part (BalanceCost::*part)(std::size_t, double) const,
+                                   Sums (BalanceCost::*blocks)(const std::vector<Part>&) const) const {
     if (!(cache.shift == shift)) {
       partsAt(shift, part, &cache.parts);
+      cache.blocks = (this->*blocks)(cache.parts);
       cache.shift = shift;
     }
-    return cache.parts;
+    return cache;
   }
 
   // The pressure's own columns of the window starting at `start` (no shift moves them).
@@ -292,6 +304,87 @@ class BalanceCost {
       r(kRegressors - 1) += h;
     }
     return r;
+  }
+
+  // The normal equations' blocks (costMap's, and operator()'s where the rows are not kept), in the lower
+  // triangle like Sums::add's (columns: 0 position; 1, 2, kRegressors - 2, kRegressors - 1 the pressure's
+  // own; 3 .. 8 the valve's). An unusable window leaves the blocks unusable (NaN), and the pair is then
+  // summed whole.
+  static constexpr int kPressureColumns[] = {1, 2, kRegressors - 2, kRegressors - 1};
+  static constexpr int kValveTerms = 2 + kKnotCount;
+  Sums pressureBlock() const {
+    Sums sums;
+    for (const Vector& r : pressure_columns_) sums.gram.selfadjointView<Eigen::Lower>().rankUpdate(r);
+    return sums;
+  }
+  Sums positionBlocks(const std::vector<PositionPart>& x) const {
+    Sums sums;
+    for (std::size_t w = 0; w < starts_.size(); ++w) {
+      if (!x[w].usable) {
+        sums.zz = NAN;
+        return sums;
+      }
+      const Vector& pc = pressure_columns_[w];
+      sums.gram(0, 0) += x[w].r0 * x[w].r0;
+      for (int c : kPressureColumns) {
+        sums.gram(c, 0) += pc(c) * x[w].r0;
+        sums.cross(c) += pc(c) * x[w].z;
+      }
+      sums.cross(0) += x[w].r0 * x[w].z;
+      sums.zz += x[w].z * x[w].z;
+      sums.noise_gram.noalias() += x[w].a_begin * x[w].a_begin.transpose();
+      sums.noise_gram.noalias() += x[w].a_end * x[w].a_end.transpose();
+    }
+    return sums;
+  }
+  Sums valveBlocks(const std::vector<ValvePart>& y) const {
+    Sums sums;
+    for (std::size_t w = 0; w < starts_.size(); ++w) {
+      if (!y[w].usable) {
+        sums.zz = NAN;
+        return sums;
+      }
+      const Vector& pc = pressure_columns_[w];
+      for (int a = 0; a < kValveTerms; ++a) {
+        for (int b = 0; b <= a; ++b) sums.gram(3 + a, 3 + b) += y[w].terms[a] * y[w].terms[b];
+        for (int c : kPressureColumns) {
+          // Lower triangle: the valve's columns lie between the pressure's 1, 2 and its last two.
+          if (c < 3)
+            sums.gram(3 + a, c) += y[w].terms[a] * pc(c);
+          else
+            sums.gram(c, 3 + a) += y[w].terms[a] * pc(c);
+        }
+      }
+    }
+    return sums;
+  }
+  // One pair's normal equations from the blocks, or summed whole where a window is unusable.
+  Sums pairSums(const std::vector<PositionPart>& x, const std::vector<ValvePart>& y, const Sums& x_sums,
+                const Sums& y_sums, const Sums& pressure) const {
+    Sums sums;
+    if (!std::isfinite(x_sums.zz) || !std::isfinite(y_sums.zz)) {
+      for (std::size_t w = 0; w < starts_.size(); ++w) {
+        if (x[w].usable && y[w].usable) sums.add(row(w, x[w], y[w]), x[w].z, x[w].a_begin, x[w].a_end, false);
+      }
+      return sums;
+    }
+    double position_valve[kValveTerms] = {}, valve_cross[kValveTerms] = {};
+    for (std::size_t w = 0; w < starts_.size(); ++w) {
+      const double r0 = x[w].r0, z = x[w].z;
+      for (int a = 0; a < kValveTerms; ++a) {
+        position_valve[a] += r0 * y[w].terms[a];
+        valve_cross[a] += z * y[w].terms[a];
+      }
+    }
+    sums.gram = pressure.gram + x_sums.gram + y_sums.gram;
+    sums.cross = x_sums.cross;
+    for (int a = 0; a < kValveTerms; ++a) {
+      sums.gram(3 + a, 0) = position_valve[a];
+      sums.cross(3 + a) = valve_cross[a];
+    }
+    sums.zz = x_sums.zz;
+    sums.noise_gram = x_sums.noise_gram;
+    return sums;
   }
 
   // The window's row from its parts and the pressure's own columns (computed once, in the constructor).
@@ -354,6 +447,7 @@ class BalanceCost {
   std::vector<std::size_t> starts_;
   double noise_variance_;  // [Pa^2] the grid pressure's white noise
   std::vector<Vector, Eigen::aligned_allocator<Vector>> pressure_columns_;  // per window
+  Sums pressure_block_;  // the pressure's own columns' block of the normal equations
   mutable PartsAt<PositionPart> position_cache_;
   mutable PartsAt<ValvePart> valve_cache_;
 };
@@ -491,12 +585,12 @@ struct MapPoint {
 // The coarse map's lowest points that are not neighbours of a lower one (at most three): each is refined,
 // the lowest refined one wins (on a fast press the true basin is narrower than the map's step, and a
 // neighbouring basin could look lower on the map: a 20 ms offset was found at 5.5 ms).
-std::vector<MapPoint> coarseBasins(const BalanceCost& coarse, double search_range, double step) {
+std::vector<MapPoint> coarseBasins(const BalanceCost& coarse, double search_range, double step, int jobs) {
   std::vector<MapPoint> map;
   std::vector<double> shifts;
   for (double shift = -std::floor(search_range / step) * step; shift <= search_range; shift += step)
     shifts.push_back(shift);
-  const std::vector<double> map_costs = coarse.costMap(shifts, shifts);
+  const std::vector<double> map_costs = coarse.costMap(shifts, shifts, jobs);
   for (std::size_t i = 0; i < shifts.size(); ++i) {
     for (std::size_t j = 0; j < shifts.size(); ++j)
       map.push_back({map_costs[i * shifts.size() + j], shifts[i], shifts[j]});
@@ -533,11 +627,16 @@ Refined refineRound(const BalanceCost& cost, Refined r, double range) {
   return r;
 }
 
-// Each basin's first round; the lowest is polished.
-Refined refineBasins(const BalanceCost& cost, const std::vector<MapPoint>& basins, double step) {
+// Each basin's first round, on up to `jobs` threads (each on its own copy of the cost, whose cache of the
+// last shifts is not for several threads); the lowest is polished.
+Refined refineBasins(const BalanceCost& cost, const std::vector<MapPoint>& basins, double step, int jobs) {
+  std::vector<Refined> rounds(basins.size());
+  parallelFor(basins.size(), jobs, [&](std::size_t b) {
+    const BalanceCost own = cost;
+    rounds[b] = refineRound(own, {basins[b].position, basins[b].valve, 0.0}, step + 1.0);
+  });
   Refined best{0.0, 0.0, std::numeric_limits<double>::infinity()};
-  for (const MapPoint& basin : basins) {
-    const Refined r = refineRound(cost, {basin.position, basin.valve, 0.0}, step + 1.0);
+  for (const Refined& r : rounds) {
     if (r.cost < best.cost) best = r;
   }
   for (int round = 0; round < 2; ++round) best = refineRound(cost, best, 1.0);
@@ -590,7 +689,7 @@ void setUncertainties(const BalanceCost& cost, const BalanceCost& half_windows, 
 }  // namespace
 
 TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
-                                       const IdentificationConfig& config) {
+                                       const IdentificationConfig& config, int jobs) {
   TopicDelayEstimate e;
   const double dt = config.resampler.sample_period;
   const std::size_t window = std::max<std::size_t>(2, std::lround(kWindow / dt));
@@ -624,7 +723,8 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
   const BalanceCost half_windows(s, config, dt, starts, pressure_noise.sigma(), 0.5 * kWindow);
   const BalanceCost cost(s, config, dt, std::move(starts), pressure_noise.sigma());
   const double search_range = config.topic_delay_search / dt;
-  const Refined best = refineBasins(cost, coarseBasins(coarse, search_range, step), step);
+  const Refined best = refineBasins(cost, coarseBasins(coarse, search_range, step, jobs), step, jobs);
+
   constexpr int kX = static_cast<int>(InputStream::kPosition), kV = static_cast<int>(InputStream::kValve);
   e.delays[kX] = best.position * dt;
   e.delays[kV] = best.valve * dt;

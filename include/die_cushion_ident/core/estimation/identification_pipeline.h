@@ -34,6 +34,10 @@ class IdentificationPipeline {
   /// Called for every uniform sample, after the identifier has taken it (model comparison, phases).
   using GridCallback = std::function<void(const GridSample&, const HydraulicIdentifier&)>;
   void setGridCallback(GridCallback callback) { on_grid_ = std::move(callback); }
+  /// Whether the identifier takes the grid (default). Off, the pipeline only resamples: the settings' study
+  /// reads grids at several periods and fits on them itself, and the identifier's filters and RLS were a
+  /// third of its time in building them.
+  void setIdentifying(bool identifying) { identifying_ = identifying; }
   /// Replaces the valve model that predicts an unmeasured spool and judges the port side near its kink (e.g.
   /// after a sweep identified it).
   void setValveModel(const ServoValveParameters& valve);
@@ -60,6 +64,7 @@ class IdentificationPipeline {
   std::vector<GridSample> resampled_, grid_;
   std::array<double, kInputStreamCount> delays_;
   double sample_period_;
+  bool identifying_ = true;
   StepCallback on_step_;
   GridCallback on_grid_;
   ValveMessageSpool spool_model_;

@@ -43,8 +43,10 @@ struct TopicDelayEstimate {
 /// the capacitive columns removed (errors in variables), and the residual's RMS is the cost; the offsets are
 /// its minimum: a coarse map over both offsets on smoothed signals, its three best basins refined in whole,
 /// quarter samples and by a parabola, the lowest kept. Only windows where the model holds (pressure above
-/// min_pressure, valve not saturated) and the cushion moves or the pressure changes count.
-TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid, const IdentificationConfig& config);
+/// min_pressure, valve not saturated) and the cushion moves or the pressure changes count. The map and the
+/// basins' refinement run on up to `jobs` threads (the same result on any number).
+TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
+                                       const IdentificationConfig& config, int jobs = 1);
 
 /// Without a measured spool the balance's valve channel is the valve model's spool, so the valve topic's
 /// offset found is the clock offset plus what the model's timing lacks: a valve slower than the model reads
