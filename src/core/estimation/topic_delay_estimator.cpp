@@ -156,15 +156,7 @@ class BalanceCost {
       Sums sums = pairSums(x_at.parts, y_at.parts, x_at.blocks, y_at.blocks, pressure_block_);
       return solve(sums, false);
     }
-    const std::vector<PositionPart>& x = x_at.parts;
-    const std::vector<ValvePart>& y = y_at.parts;
-    Sums sums;
-    if (with_correlation) sums.rows.reserve(starts_.size());
-    for (std::size_t w = 0; w < starts_.size(); ++w) {
-      if (x[w].usable && y[w].usable) {
-        sums.add(row(w, x[w], y[w]), x[w].z, x[w].a_begin, x[w].a_end, with_correlation);
-      }
-    }
+    Sums sums = wholeSums(x_at.parts, y_at.parts, true);
     return solve(sums, with_correlation);
   }
 
@@ -358,16 +350,21 @@ class BalanceCost {
     }
     return sums;
   }
+  // The normal equations summed window by window (the rows kept, in time order, where asked).
+  Sums wholeSums(const std::vector<PositionPart>& x, const std::vector<ValvePart>& y, bool keep_rows) const {
+    Sums sums;
+    if (keep_rows) sums.rows.reserve(starts_.size());
+    for (std::size_t w = 0; w < starts_.size(); ++w) {
+      if (x[w].usable && y[w].usable)
+        sums.add(row(w, x[w], y[w]), x[w].z, x[w].a_begin, x[w].a_end, keep_rows);
+    }
+    return sums;
+  }
   // One pair's normal equations from the blocks, or summed whole where a window is unusable.
   Sums pairSums(const std::vector<PositionPart>& x, const std::vector<ValvePart>& y, const Sums& x_sums,
                 const Sums& y_sums, const Sums& pressure) const {
+    if (!std::isfinite(x_sums.zz) || !std::isfinite(y_sums.zz)) return wholeSums(x, y, false);
     Sums sums;
-    if (!std::isfinite(x_sums.zz) || !std::isfinite(y_sums.zz)) {
-      for (std::size_t w = 0; w < starts_.size(); ++w) {
-        if (x[w].usable && y[w].usable) sums.add(row(w, x[w], y[w]), x[w].z, x[w].a_begin, x[w].a_end, false);
-      }
-      return sums;
-    }
     double position_valve[kValveTerms] = {}, valve_cross[kValveTerms] = {};
     for (std::size_t w = 0; w < starts_.size(); ++w) {
       const double r0 = x[w].r0, z = x[w].z;
