@@ -71,13 +71,18 @@ struct FreeRunError {
   ParameterVector scale;
   double min_pressure;
   double shift_scale = 0.0;  // [s] the unit of the position's shift; 0: not an unknown
+  // Called from several threads at once (the Jacobian's columns): each call runs its own copy of the model,
+  // whose user formulas each hold a parser that reads its variables from the instance (shared, two threads
+  // gave a bulk modulus 0.3 % and its std five times off).
   bool operator()(double const* const* x, double* out) const {
+    const HydraulicModel own_model(*model);
     ParameterVector theta(scale.size());
     for (Eigen::Index i = 0; i < scale.size(); ++i) theta(i) = x[0][i] * scale(i);
     if (shift_scale > 0.0) {
-      freeRunResiduals(positionShifted(*grid, n, (x[1][0] - 1.0) * shift_scale), n, *model, theta, min_pressure, out);
+      freeRunResiduals(positionShifted(*grid, n, (x[1][0] - 1.0) * shift_scale), n, own_model, theta,
+                       min_pressure, out);
     } else {
-      freeRunResiduals(*grid, n, *model, theta, min_pressure, out);
+      freeRunResiduals(*grid, n, own_model, theta, min_pressure, out);
     }
     for (std::size_t i = 0; i < n; ++i) {
       if (!std::isfinite(out[i])) return false;
@@ -183,13 +188,14 @@ void setClusterRobustStds(const std::vector<GridSample>& fitted, std::size_t n, 
   Eigen::MatrixXd jacobian(n, k);
   parallelFor(static_cast<std::size_t>(k), refine.jobs, [&](std::size_t column) {
     const auto i = static_cast<Eigen::Index>(column);
+    const HydraulicModel own_model(model);  // one per thread (FreeRunError says why)
     std::vector<double> plus(n), minus(n);
     const double h = 1e-4 * std::max(std::abs(theta(i)), scale(i) * 1e-3);
     ParameterVector t = theta;
     t(i) += h;
-    freeRunResiduals(fitted, n, model, t, min_pressure, plus.data());
+    freeRunResiduals(fitted, n, own_model, t, min_pressure, plus.data());
     t(i) = theta(i) - h;
-    freeRunResiduals(fitted, n, model, t, min_pressure, minus.data());
+    freeRunResiduals(fitted, n, own_model, t, min_pressure, minus.data());
     // r = p - p_hat: d p_hat / d theta = -(dr / d theta)
     for (std::size_t s = 0; s < n; ++s) jacobian(s, i) = -(plus[s] - minus[s]) / (2.0 * h);
   });
