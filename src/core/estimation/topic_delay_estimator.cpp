@@ -86,13 +86,24 @@ double at(const std::vector<float>& c, std::size_t i, double shift) {
   return (1.0 - w) * c[k] + w * c[k + 1];
 }
 
-// The valve-opening basis times the port's root, for spool y at port pressure p.
-void valveTerms(double y, double p, double supply, double* r) {
-  const double root = std::sqrt(y >= 0.0 ? std::max(p, 0.0) : std::max(supply - p, 0.0));
+// A sample's port roots: the shifts move the spool, never the pressure, so each sample's roots are taken
+// once and not in every evaluation (their square roots were most of the offsets' search).
+struct PortRoots {
+  double p = 0.0;       // [Pa] the port pressure
+  double tank = 0.0;    // sqrt(max(p, 0)): the port to tank, open for y >= 0
+  double supply = 0.0;  // sqrt(max(p_S - p, 0)): the port from supply, open for y < 0
+  PortRoots() = default;
+  PortRoots(double p_, double supply_pressure)
+      : p(p_), tank(std::sqrt(std::max(p_, 0.0))), supply(std::sqrt(std::max(supply_pressure - p_, 0.0))) {}
+};
+
+// The valve-opening basis times the port's root, for spool y at a sample's port pressure.
+void valveTerms(double y, const PortRoots& port, double* r) {
+  const double root = y >= 0.0 ? port.tank : port.supply;
   const double sign = y > 0.0 ? 1.0 : y < 0.0 ? -1.0 : 0.0;
   r[0] = y * root;
   for (int k = 0; k < kKnotCount; ++k) r[1 + k] = sign * std::min(std::abs(y), kKnots[k]) * root;
-  r[1 + kKnotCount] = y > 0.0 && p > 0.0 ? y / std::sqrt(p) : 0.0;  // a tank pressure, to first order
+  r[1 + kKnotCount] = y > 0.0 && port.p > 0.0 ? y / port.tank : 0.0;  // a tank pressure, to first order
 }
 
 class BalanceCost {
@@ -111,6 +122,12 @@ class BalanceCost {
     pressure_columns_.reserve(starts_.size());
     for (std::size_t start : starts_) pressure_columns_.push_back(pressureColumns(start));
     pressure_block_ = pressureBlock();
+    const std::size_t steps = window_ / stride_ + 1;
+    port_roots_.reserve(starts_.size() * steps);
+    for (std::size_t start : starts_) {
+      for (std::size_t k = start; k <= start + window_; k += stride_)
+        port_roots_.emplace_back(s_.p[k], config_.geometry.supply_pressure);
+    }
   }
 
   struct Fit {
@@ -208,8 +225,9 @@ class BalanceCost {
     double terms[2 + kKnotCount] = {};
   };
 
-  PositionPart positionPart(std::size_t start, double shift) const {
+  PositionPart positionPart(std::size_t window, double shift) const {
     PositionPart part;
+    const std::size_t start = starts_[window];
     const CylinderGeometry& g = config_.geometry;
     // The window is a whole number of steps: the last step's end is the window's end.
     const double x_begin = at(s_.x, start, shift);
@@ -234,19 +252,20 @@ class BalanceCost {
     return part;
   }
 
-  ValvePart valvePart(std::size_t start, double shift) const {
+  ValvePart valvePart(std::size_t window, double shift) const {
     ValvePart part;
+    const std::size_t start = starts_[window];
     const double h = stride_ * dt_;
-    const double supply = config_.geometry.supply_pressure;
+    const PortRoots* port = &port_roots_[window * (window_ / stride_ + 1)];
     // Each step's end is the next step's start: its valve terms are carried over, not computed twice.
     double p0 = s_.p[start], y0 = at(s_.y, start, shift);
     double terms0[2 + kKnotCount], terms1[2 + kKnotCount];
-    valveTerms(y0, p0, supply, terms0);
+    valveTerms(y0, *port, terms0);
     for (std::size_t k = start; k < start + window_; k += stride_) {
       const double p1 = s_.p[k + stride_];
       const double y1 = at(s_.y, k + stride_, shift);
       if (!std::isfinite(p0 + p1 + y0 + y1)) return part;
-      valveTerms(y1, p1, supply, terms1);
+      valveTerms(y1, *++port, terms1);
       for (int j = 0; j < 2 + kKnotCount; ++j) part.terms[j] += 0.5 * h * (terms0[j] + terms1[j]);
       p0 = p1;
       y0 = y1;
@@ -262,7 +281,7 @@ class BalanceCost {
                std::vector<Part>* parts) const {
     parts->clear();
     parts->reserve(starts_.size());
-    for (std::size_t start : starts_) parts->push_back((this->*part)(start, shift));
+    for (std::size_t w = 0; w < starts_.size(); ++w) parts->push_back((this->*part)(w, shift));
   }
   template <typename Part>
   struct PartsAt {
@@ -445,6 +464,7 @@ class BalanceCost {
   double noise_variance_;  // [Pa^2] the grid pressure's white noise
   std::vector<Vector, Eigen::aligned_allocator<Vector>> pressure_columns_;  // per window
   Sums pressure_block_;  // the pressure's own columns' block of the normal equations
+  std::vector<PortRoots> port_roots_;  // each window's samples' (window_ / stride_ + 1 a window)
   mutable PartsAt<PositionPart> position_cache_;
   mutable PartsAt<ValvePart> valve_cache_;
 };
