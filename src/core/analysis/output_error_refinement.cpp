@@ -4,6 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
 
 #include "die_cushion_ident/core/analysis/free_run_pressure.h"
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
@@ -14,9 +18,6 @@ namespace die_cushion_ident {
 
 namespace {
 
-// The step-size control's decisions change discontinuously with the parameters; a tight tolerance keeps
-// that roughness far below the differences the numeric derivatives take.
-constexpr double kTolerance = 1.0;  // [Pa]
 // The refinement is tried only up to this multiple of the pressure noise (to save the time on models that
 // lack an effect; it is kept only up to OutputErrorOptions::kept_up_to_noise): the equation-error fit itself
 // left up to 10 times the noise on fast presses with a valve overlap (a dead volume 30 % off), which the
@@ -29,8 +30,9 @@ constexpr double kMaxShiftUnits = 3.0;
 
 // Measured minus free-run pressure at every sample (0 where the free run is anchored or has no value).
 void freeRunResiduals(const std::vector<GridSample>& grid, std::size_t n, const HydraulicModel& model,
-                      const ParameterVector& theta, double min_pressure, double* out, int* valid = nullptr) {
-  FreeRunPressure free_run(model, min_pressure, kTolerance);
+                      const ParameterVector& theta, double min_pressure, double tolerance, double* out,
+                      int* valid = nullptr) {
+  FreeRunPressure free_run(model, min_pressure, tolerance);
   int count = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const GridSample* next = i + 1 < n ? &grid[i + 1] : nullptr;
@@ -64,6 +66,35 @@ std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std
 
 namespace {
 
+// The free runs already made, by their unknowns. Ceres asks for the residuals at a candidate and, where it
+// is taken, for the Jacobian there, whose base is the same point again; the fit's start was run before the
+// fit, and its final residuals are those of its last point: each of these is one free run, not two or three
+// (a third of the refinement's runs). Shared by the threads of the Jacobian's columns.
+class FreeRunMemo {
+ public:
+  struct Run {
+    std::vector<double> x, residuals;
+    int valid = 0;
+  };
+  std::optional<Run> find(const std::vector<double>& x) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const Run& run : runs_) {
+      if (run.x == x) return run;
+    }
+    return std::nullopt;
+  }
+  void keep(Run run) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    runs_.push_back(std::move(run));
+    // The last candidate, its Jacobian's base and columns (one per unknown), and the point before.
+    if (runs_.size() > static_cast<std::size_t>(kMaxParameters) + 4) runs_.pop_front();
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::deque<Run> runs_;
+};
+
 struct FreeRunError {
   const std::vector<GridSample>* grid;
   std::size_t n;
@@ -71,18 +102,35 @@ struct FreeRunError {
   ParameterVector scale;
   double min_pressure;
   double shift_scale = 0.0;  // [s] the unit of the position's shift; 0: not an unknown
+  double tolerance = 1.0;    // [Pa] the free run's (OutputErrorOptions::tolerance)
+  std::shared_ptr<FreeRunMemo> memo;
+
+  // The unknowns as the memo's key: the parameters in units of their scale, then the shift (if one).
+  std::vector<double> key(double const* const* x) const {
+    std::vector<double> k(x[0], x[0] + scale.size());
+    if (shift_scale > 0.0) k.push_back(x[1][0]);
+    return k;
+  }
   // Called from several threads at once (the Jacobian's columns): each call runs its own copy of the model,
   // whose user formulas each hold a parser that reads its variables from the instance (shared, two threads
   // gave a bulk modulus 0.3 % and its std five times off).
   bool operator()(double const* const* x, double* out) const {
-    const HydraulicModel own_model(*model);
-    ParameterVector theta(scale.size());
-    for (Eigen::Index i = 0; i < scale.size(); ++i) theta(i) = x[0][i] * scale(i);
-    if (shift_scale > 0.0) {
-      freeRunResiduals(positionShifted(*grid, n, (x[1][0] - 1.0) * shift_scale), n, own_model, theta,
-                       min_pressure, out);
+    FreeRunMemo::Run run;
+    run.x = key(x);
+    if (const std::optional<FreeRunMemo::Run> known = memo->find(run.x)) {
+      std::copy(known->residuals.begin(), known->residuals.end(), out);
     } else {
-      freeRunResiduals(*grid, n, own_model, theta, min_pressure, out);
+      const HydraulicModel own_model(*model);
+      ParameterVector theta(scale.size());
+      for (Eigen::Index i = 0; i < scale.size(); ++i) theta(i) = x[0][i] * scale(i);
+      if (shift_scale > 0.0) {
+        freeRunResiduals(positionShifted(*grid, n, (x[1][0] - 1.0) * shift_scale), n, own_model, theta,
+                         min_pressure, tolerance, out, &run.valid);
+      } else {
+        freeRunResiduals(*grid, n, own_model, theta, min_pressure, tolerance, out, &run.valid);
+      }
+      run.residuals.assign(out, out + n);
+      memo->keep(std::move(run));
     }
     for (std::size_t i = 0; i < n; ++i) {
       if (!std::isfinite(out[i])) return false;
@@ -123,13 +171,17 @@ struct Solved {
   ParameterVector theta;
   double position_shift = 0.0;  // [s]
   std::size_t iterations = 0;
+  std::optional<FreeRunMemo::Run> run;  // the free run of the solution, where the fit made it
 };
 
 // The parameters (and the position's shift, where it is an unknown) that minimise the free run's error over
 // the first n samples, within the physical ranges.
+// `start_run`: the free run of `start` on the grid as it is (the memo's first point: the start in units of
+// its scale is +-1 or 0, which times the scale is the start again, and a shift of 0 leaves the grid as it
+// is).
 Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, const HydraulicModel& model,
                             const ParameterVector& start, const ParameterVector& scale, double min_pressure,
-                            const OutputErrorOptions& refine) {
+                            const OutputErrorOptions& refine, FreeRunMemo::Run start_run) {
   const Eigen::Index k = start.size();
   std::vector<double> x(static_cast<std::size_t>(k));
   for (Eigen::Index i = 0; i < k; ++i) x[i] = start(i) / scale(i);
@@ -139,9 +191,22 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   const bool shifting = position_shift_scale > 0.0;
   // The shift in units of position_shift_scale, plus 1: Ceres's relative difference step needs a non-zero start.
   double shift = 1.0;
-  auto* cost = new ParallelNumericDiffCost<FreeRunError, ceres::FORWARD>(
-      FreeRunError{&grid, n, &model, scale, min_pressure, shifting ? position_shift_scale : 0.0}, differences,
-      refine.jobs);
+  const FreeRunError error{&grid,
+                           n,
+                           &model,
+                           scale,
+                           min_pressure,
+                           shifting ? position_shift_scale : 0.0,
+                           refine.tolerance,
+                           std::make_shared<FreeRunMemo>()};
+  const double* unknowns[2] = {x.data(), &shift};
+  bool start_exact = true;
+  for (Eigen::Index i = 0; i < k; ++i) start_exact &= x[i] * scale(i) == start(i);
+  if (start_exact) {
+    start_run.x = error.key(unknowns);
+    error.memo->keep(std::move(start_run));
+  }
+  auto* cost = new ParallelNumericDiffCost<FreeRunError, ceres::FORWARD>(error, differences, refine.jobs);
   cost->AddParameterBlock(static_cast<int>(k));
   if (shifting) cost->AddParameterBlock(1);
   cost->SetNumResiduals(static_cast<int>(n));
@@ -163,6 +228,10 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   options.linear_solver_type = ceres::DENSE_QR;
   options.max_num_iterations = 10;
   options.function_tolerance = 1e-3;  // a thousandth of the cost: far below what a held-out test resolves
+  // With bounds Ceres follows every trust-region step by a projected line search that asks for the gradient,
+  // i.e. a whole Jacobian of free runs more at each candidate: 7 Jacobians in 3 iterations instead of 3.
+  // The bounds still hold (the step is projected onto them).
+  options.max_num_line_search_step_size_iterations = 0;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
@@ -171,6 +240,7 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   for (Eigen::Index i = 0; i < k; ++i) solved.theta(i) = x[i] * scale(i);
   solved.position_shift = shifting ? (shift - 1.0) * position_shift_scale : 0.0;
   solved.iterations = summary.iterations.size();
+  solved.run = error.memo->find(error.key(unknowns));
   return solved;
 }
 
@@ -193,9 +263,9 @@ void setClusterRobustStds(const std::vector<GridSample>& fitted, std::size_t n, 
     const double h = 1e-4 * std::max(std::abs(theta(i)), scale(i) * 1e-3);
     ParameterVector t = theta;
     t(i) += h;
-    freeRunResiduals(fitted, n, own_model, t, min_pressure, plus.data());
+    freeRunResiduals(fitted, n, own_model, t, min_pressure, refine.tolerance, plus.data());
     t(i) = theta(i) - h;
-    freeRunResiduals(fitted, n, own_model, t, min_pressure, minus.data());
+    freeRunResiduals(fitted, n, own_model, t, min_pressure, refine.tolerance, minus.data());
     // r = p - p_hat: d p_hat / d theta = -(dr / d theta)
     for (std::size_t s = 0; s < n; ++s) jacobian(s, i) = -(plus[s] - minus[s]) / (2.0 * h);
   });
@@ -253,7 +323,7 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   }
   std::vector<double> r(n);
   int valid = 0;
-  freeRunResiduals(grid, n, model, start, min_pressure, r.data(), &valid);
+  freeRunResiduals(grid, n, model, start, min_pressure, refine.tolerance, r.data(), &valid);
   fit.start_rms = rmsOf(r, valid);
   fit.rms = fit.start_rms;
   fit.samples = valid;
@@ -271,12 +341,18 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
     return fit;
   }
   const ParameterVector scale = unknownScales(start, start_std);
-  const Solved solved = minimiseFreeRunError(grid, n, model, start, scale, min_pressure, refine);
+  const Solved solved = minimiseFreeRunError(grid, n, model, start, scale, min_pressure, refine,
+                                             FreeRunMemo::Run{{}, r, valid});
   const bool shifting = refine.position_shift_scale > 0.0;
   const std::vector<GridSample> shifted =
       shifting ? positionShifted(grid, n, solved.position_shift) : std::vector<GridSample>();
   const std::vector<GridSample>& fitted = shifting ? shifted : grid;
-  freeRunResiduals(fitted, n, model, solved.theta, min_pressure, r.data(), &valid);
+  if (solved.run) {
+    r = solved.run->residuals;
+    valid = solved.run->valid;
+  } else {
+    freeRunResiduals(fitted, n, model, solved.theta, min_pressure, refine.tolerance, r.data(), &valid);
+  }
   const double rms = rmsOf(r, valid);
   fit.message = whyNotKept(fit, rms, solved.theta.allFinite(), refine);
   if (!fit.message.empty()) return fit;

@@ -45,6 +45,10 @@ struct OutputErrorOptions {
   /// [Pa] the pressure noise the free run is judged by (IdentificationConfig::grid_pressure_noise); 0: estimated
   /// on the grid.
   double pressure_noise = 0.0;
+  /// [Pa] the free runs' error tolerance. The step-size control's decisions change discontinuously with the
+  /// parameters; a tight tolerance keeps that roughness far below the differences the numeric derivatives
+  /// take.
+  double tolerance = 1.0;
 };
 
 /// Minimises the free run's error over the parameters (Ceres, from the equation-error estimate `start`),

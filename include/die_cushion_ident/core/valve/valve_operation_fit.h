@@ -24,11 +24,14 @@ struct ValveOperationFit {
 /// Output-error fit (Ceres, bounded: 5-2000 Hz, damping 0.1-3, dead time 0-20 ms) of the model's spool,
 /// run message by message on the held commands as ValveMessageSpool runs it, to the measured spool, from
 /// `start` and from starts at half and twice its natural frequency. `samples` in time order; stretches
-/// split at gaps longer than `max_gap`; the starts are searched on the first 3000 samples and the best refined
-/// on all, at most `max_samples` of them (the first ones). Succeeds
-/// when the spool moved (its range beyond 20 noise stds) and the fitted model explains it to within 3 times
-/// the sensor's noise.
-ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& samples, const ServoValveParameters& start,
-                                      double max_gap = 0.02, std::size_t max_samples = 15000);
+/// split at gaps longer than `max_gap`; the starts are searched on the first 3000 samples and the best
+/// refined on all, at most `max_samples` of them (the first ones). Succeeds when the spool moved (its range
+/// beyond 20 noise stds) and the fitted model explains it to within 3 times the sensor's noise. The
+/// refinement on all samples evaluates its Jacobian on up to `jobs` threads (0: one per core); the result is
+/// the same on any number.
+constexpr std::size_t kValveOperationSamples = 15000;  ///< fitValveToOperation's default max_samples
+ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& samples,
+                                      const ServoValveParameters& start, double max_gap = 0.02,
+                                      std::size_t max_samples = kValveOperationSamples, int jobs = 1);
 
 }  // namespace die_cushion_ident
