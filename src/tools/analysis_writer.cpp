@@ -195,6 +195,11 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
   emitResolutionStudy(out, choice->study);
   emitSurvey(out, *choice);
   out << YAML::Key << "seconds_spent" << YAML::Value << choice->seconds_spent;
+  const SettingsChoice::Spent& spent = choice->seconds_spent_on;
+  out << YAML::Key << "seconds_spent_on" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  out << YAML::Key << "clock_offsets" << YAML::Value << spent.clock_offsets;
+  out << YAML::Key << "valve_model" << YAML::Value << spent.valve_model;
+  out << YAML::Key << "resolution_study" << YAML::Value << spent.resolution_study << YAML::EndMap;
   out << YAML::EndMap;
 }
 

@@ -72,6 +72,10 @@ IdentificationConfig atPeriod(IdentificationConfig c, double period, double shor
   return c;
 }
 
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 std::vector<GridSample> gridAt(const IdentificationConfig& config, const Messages& messages) {
   std::vector<GridSample> grid;
   IdentificationPipeline pipeline(config);
@@ -468,8 +472,10 @@ void ResolutionStudy::identifyAtTheFinestPeriod(StudyOutcome& outcome) {
                      atPeriod(choice_.config, periods_.back(), shortest_drawing_), INT_MIN, INT_MAX);
   // The position's offset refined by the free run: the finest level's grid read with it, and the refined
   // parameters (fitted with it) studied.
+  const auto refining = std::chrono::steady_clock::now();
   const std::optional<OutputErrorFit> refined =
       refinePositionDelay(model_, fit_, levels_.back().grid, periods_.back(), jobs_, choice_);
+  choice_.seconds_spent_on.clock_offsets += secondsSince(refining);
   if (refined) {
     Level& finest = levels_.back();
     finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice_.position_delay_shift);
@@ -706,10 +712,14 @@ SettingsChoice SettingsFromRecording::choose() const {
   // The valve model from the operation, fitted on the other core while the clock offsets are searched
   // (they read the measured spool, not the model's).
   std::future<ValveOperationFit> valve_fit;
+  double valve_seconds = 0.0;
   if (survey.spool_measured) {
-    valve_fit = std::async(std::launch::async, [&valve, this] {
-      return fitValveToOperation(valve, config_.valve, config_.resampler.max_gap, kValveOperationSamples,
-                                 jobs_);
+    valve_fit = std::async(std::launch::async, [&valve, &valve_seconds, this] {
+      const auto fitting = std::chrono::steady_clock::now();
+      ValveOperationFit fit =
+          fitValveToOperation(valve, config_.valve, config_.resampler.max_gap, kValveOperationSamples, jobs_);
+      valve_seconds = secondsSince(fitting);
+      return fit;
     });
   }
   double finest_interval = std::numeric_limits<double>::infinity();
@@ -720,6 +730,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   const double allowed_change = kResolutionShare * noise;
   const std::vector<double> periods = studyPeriods(finest_interval);
   // The clock offsets, at the finest period (the study below then runs on corrected stamps).
+  const auto searching = std::chrono::steady_clock::now();
   if (!config_.topicDelaysSet()) {
     IdentificationConfig finest = atPeriod(choice.config, periods.back(), 0.0);
     choice.delays = estimateTopicDelays(gridAt(finest, messages_), finest, jobs_);
@@ -732,7 +743,9 @@ SettingsChoice SettingsFromRecording::choose() const {
     // Applied (or not) on the offsets the model's spool needs; stated as clock offsets with its timing.
     if (!survey.spool_measured && !valve_configured) addValveModelTiming(config_.valve, &*choice.delays);
   }
+  choice.seconds_spent_on.clock_offsets = secondsSince(searching);
   if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
+  choice.seconds_spent_on.valve_model = valve_seconds;
   ResolutionStudy study(messages_, periods, jobs_, choice);
   const StudyOutcome outcome = study.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
   const IdentificationConfig chosen = atPeriod(choice.config, outcome.chosen_period, outcome.shortest_drawing);
@@ -753,7 +766,8 @@ SettingsChoice SettingsFromRecording::choose() const {
   keepConfigured(config_, configured_, allowed_change, noise, outcome.chosen_period, choice);
   chooseVelocityWindow(config_, configured_.count("velocity_window") > 0, choice);
   reconcile(outcome.shortest_drawing, choice);
-  choice.seconds_spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  choice.seconds_spent = secondsSince(started);
+  choice.seconds_spent_on.resolution_study = choice.seconds_spent - choice.seconds_spent_on.clock_offsets;
   return choice;
 }
 

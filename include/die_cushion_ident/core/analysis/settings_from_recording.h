@@ -77,6 +77,14 @@ struct SettingsChoice {
   std::string resolution_remedy;
   std::vector<AnalysisWarning> warnings;  ///< a configured value that biases the result on this recording
   double seconds_spent = 0.0;          ///< [s] wall time of choose()
+  /// [s] Where it went: the clock offsets (their search and the position offset's refinement by the free
+  /// run: estimates the analysis makes without a survey too, on the whole recording), the valve model fitted
+  /// to the operation (on the other core, beside the offsets: its own wall time), and the rest, the choice
+  /// itself (the survey's rates and noise, the grids, fit and free runs of the resolution study, and any
+  /// wait for the valve model). clock_offsets + resolution_study = seconds_spent.
+  struct Spent {
+    double clock_offsets = 0.0, valve_model = 0.0, resolution_study = 0.0;
+  } seconds_spent_on;
 };
 
 /// Whether the user configured the valve model (any of its keys): without a measured spool the model then is
