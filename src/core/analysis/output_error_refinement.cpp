@@ -85,9 +85,10 @@ class FreeRunMemo {
   }
   void keep(Run run) {
     std::lock_guard<std::mutex> lock(mutex_);
+    // The last candidate, its Jacobian's columns (one per unknown), the point before and the start.
+    const std::size_t kept = run.x.size() + 3;
     runs_.push_back(std::move(run));
-    // The last candidate, its Jacobian's base and columns (one per unknown), and the point before.
-    if (runs_.size() > static_cast<std::size_t>(kMaxParameters) + 4) runs_.pop_front();
+    while (runs_.size() > kept) runs_.pop_front();
   }
 
  private:
