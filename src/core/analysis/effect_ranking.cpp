@@ -313,10 +313,9 @@ EffectRankingResult rankEffects(const std::vector<GridSample>& grid, const Strok
   const int split = options.split(cycles);
   const bool enough = split >= 1 && cycles - split >= 1 && cycles >= options.min_held_out_cycles;
   // The folds side by side: nothing else runs yet (one fold after the other left a core idle for 0.7 s/h).
-  HeldOutErrors current =
-      enough ? heldOutErrors(grid, strokes, config, split, options.jobs != 1) : HeldOutErrors();
   // The base's free runs kept, so that each extension's own run gives its adjustment (compareHeldOut).
-  if (enough) keepPredictions(grid, strokes, &current);
+  HeldOutErrors current =
+      enough ? heldOutErrorsKept(grid, strokes, config, split, options.jobs != 1) : HeldOutErrors();
   ranking.base_error_rms = current.rms;
   std::vector<Judged> round = judgeLibraryEffects(grid, strokes, config, current, enough, options);
   // The staircase: add the most explanatory missing effect, judge the rest against the extended model,

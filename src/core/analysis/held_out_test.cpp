@@ -82,13 +82,16 @@ ParameterVector refinedOnTraining(const std::vector<GridSample>& grid,
 // Each held-out cycle's free-run sum of squared errors and its samples, the model run free from each
 // cycle's start: a cycle's error is its own, not carried over from the one before.
 // With `reference`, each cycle's mean square difference from it goes to `adjustment`.
+// With `predictions`, the free runs are kept there too (each fold writes only its own held-out cycles).
 void addHeldOutSquares(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                        const HydraulicModel& model, const ParameterVector& theta, double min_pressure,
                        int test_first, int test_last, std::vector<double>& sum, std::vector<int>& count,
-                       const std::vector<float>* reference, std::vector<double>& adjustment) {
+                       const std::vector<float>* reference, std::vector<double>& adjustment,
+                       std::vector<float>* predictions) {
   for (int c = test_first; c <= test_last; ++c) {
     const auto [begin, end] = strokes.range(c, c);
-    const SquaredErrors cycle = freeRunSquaredErrors(grid, begin, end, model, theta, min_pressure, reference);
+    const SquaredErrors cycle =
+        freeRunSquaredErrors(grid, begin, end, model, theta, min_pressure, reference, predictions);
     sum[c] += cycle.sum;
     count[c] += static_cast<int>(cycle.samples);
     if (reference && cycle.differences > 0)
@@ -99,8 +102,10 @@ void addHeldOutSquares(const std::vector<GridSample>& grid, const StrokeSegmenta
 HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                    const std::array<const IdentificationConfig*, 2>& fold_configs, int split,
                                    bool side_by_side, std::unique_ptr<HydraulicIdentifier> (&fits)[2],
-                                   const HeldOutErrors* base) {
+                                   const HeldOutErrors* base, bool keep_predictions = false) {
   HeldOutErrors result;
+  std::vector<float> predictions;
+  if (keep_predictions) predictions.assign(grid.size(), std::numeric_limits<float>::quiet_NaN());
   result.cycle_rms.assign(strokes.cycles, std::numeric_limits<double>::quiet_NaN());
   // Each fold fills only its own held-out cycles' sums.
   std::vector<double> sum(strokes.cycles, 0.0);
@@ -123,7 +128,7 @@ HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const St
                                                           fits[which]->estimate(), config)
                                       : fits[which]->estimate().values();
     addHeldOutSquares(grid, strokes, model, theta, config.min_pressure, test_first, test_last, sum, count,
-                      reference, result.cycle_adjustment);
+                      reference, result.cycle_adjustment, keep_predictions ? &predictions : nullptr);
     (*folds)[which] = {config, theta, test_first, test_last};
   };
   std::future<void> second = std::async(side_by_side ? std::launch::async : std::launch::deferred, fold, 1);
@@ -139,6 +144,8 @@ HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const St
   }
   result.rms = total_n > 0 ? std::sqrt(total / total_n) : 0.0;
   result.folds = std::move(folds);
+  if (keep_predictions)
+    result.predictions = std::make_shared<const std::vector<float>>(std::move(predictions));
   return result;
 }
 
@@ -267,6 +274,12 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
       heldOutErrorsOfFolds(grid, strokes, {&config, &config}, split, side_by_side, fits, base);
   if (fitted_on_both) *fitted_on_both = fits[0]->combinedEstimate(*fits[1]);
   return result;
+}
+
+HeldOutErrors heldOutErrorsKept(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                const IdentificationConfig& config, int split, bool side_by_side) {
+  std::unique_ptr<HydraulicIdentifier> fits[2];
+  return heldOutErrorsOfFolds(grid, strokes, {&config, &config}, split, side_by_side, fits, nullptr, true);
 }
 
 HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,

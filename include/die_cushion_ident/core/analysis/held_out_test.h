@@ -56,6 +56,11 @@ HeldOutErrors heldOutErrors(const std::vector<GridSample>& grid, const StrokeSeg
                             const IdentificationConfig& config, int split, bool side_by_side = false,
                             HydraulicEstimate* fitted_on_both = nullptr, const HeldOutErrors* base = nullptr);
 
+/// The same, base of the comparisons to come, with its free runs kept (`predictions`) from the same pass: the
+/// ranking's base ran them a second time for keepPredictions (a whole free run of the recording).
+HeldOutErrors heldOutErrorsKept(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                                const IdentificationConfig& config, int split, bool side_by_side = false);
+
 /// The same with a model of each fold's own: `fold_configs[0]` fitted on cycles [0, split) and run free on
 /// the rest, `fold_configs[1]` the other way round. For an extension chosen on each fold's training cycles
 /// only (a formula's breakpoint), so that the cycles it is tested on never took part in choosing it.
