@@ -698,6 +698,24 @@ void reconcile(double shortest_drawing, SettingsChoice& choice) {
   }
 }
 
+// The topics' clock offsets on the survey's grid at `finest_period`, applied where they can be told from 0.
+void searchClockOffsets(const Messages& messages, double finest_period, bool valve_configured, int jobs,
+                        SettingsChoice& choice) {
+  const auto searching = std::chrono::steady_clock::now();
+  const IdentificationConfig finest = atPeriod(choice.config, finest_period, 0.0);
+  choice.delays = estimateTopicDelays(gridAt(finest, messages), finest, jobs);
+  if (choice.delays->valid && choice.delays->distinguishable()) {
+    choice.config.topic_delays = choice.delays->delays;
+    choice.delays_applied = true;
+  } else if (choice.delays->valid) {
+    choice.config.topic_delays = {0.0, 0.0, 0.0};
+  }
+  // Applied (or not) on the offsets the model's spool needs; stated as clock offsets with its timing.
+  if (!choice.survey.spool_measured && !valve_configured)
+    addValveModelTiming(choice.config.valve, &*choice.delays);
+  choice.seconds_spent_on.clock_offsets = secondsSince(searching);
+}
+
 }  // namespace
 
 SettingsChoice SettingsFromRecording::choose() const {
@@ -730,20 +748,8 @@ SettingsChoice SettingsFromRecording::choose() const {
   const double allowed_change = kResolutionShare * noise;
   const std::vector<double> periods = studyPeriods(finest_interval);
   // The clock offsets, at the finest period (the study below then runs on corrected stamps).
-  const auto searching = std::chrono::steady_clock::now();
-  if (!config_.topicDelaysSet()) {
-    IdentificationConfig finest = atPeriod(choice.config, periods.back(), 0.0);
-    choice.delays = estimateTopicDelays(gridAt(finest, messages_), finest, jobs_);
-    if (choice.delays->valid && choice.delays->distinguishable()) {
-      choice.config.topic_delays = choice.delays->delays;
-      choice.delays_applied = true;
-    } else if (choice.delays->valid) {
-      choice.config.topic_delays = {0.0, 0.0, 0.0};
-    }
-    // Applied (or not) on the offsets the model's spool needs; stated as clock offsets with its timing.
-    if (!survey.spool_measured && !valve_configured) addValveModelTiming(config_.valve, &*choice.delays);
-  }
-  choice.seconds_spent_on.clock_offsets = secondsSince(searching);
+  if (!config_.topicDelaysSet())
+    searchClockOffsets(messages_, periods.back(), valve_configured, jobs_, choice);
   if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
   choice.seconds_spent_on.valve_model = valve_seconds;
   ResolutionStudy study(messages_, periods, jobs_, choice);
