@@ -525,12 +525,16 @@ std::vector<std::string> supersededSteps(const std::vector<GridSample>& grid,
   IdentificationConfig full = recommended;
   for (const auto* p : add) full.custom_effects.push_back(p->spec());
   const int split = ranking_options.split(strokes.cycles);
-  const HeldOutErrors& with_all = add.back()->held_out;
+  // Both sides' held-out free runs kept, each from the pass that measures it: the adjustment of the test
+  // compares them, and ran both models again for every step otherwise.
+  HeldOutErrors with_all = add.back()->held_out;
+  keepPredictions(grid, strokes, &with_all);
   for (const auto& step : ranking->steps) {
     IdentificationConfig without = full;
     without.effects.erase(std::find(without.effects.begin(), without.effects.end(), step.add));
-    const HeldOutComparison keep = compareHeldOut(grid, strokes, heldOutErrors(grid, strokes, without, split),
-                                                  with_all, ranking_options.significance);
+    const HeldOutComparison keep =
+        compareHeldOut(grid, strokes, heldOutErrorsKept(grid, strokes, without, split), with_all,
+                       ranking_options.significance);
     if (keep.error_reduction >= ranking_options.missing_reduction && keep.significant) continue;
     superseded.push_back(step.add);
     for (auto& c : ranking->candidates) {

@@ -172,9 +172,14 @@ std::vector<double> adjustmentOf(const std::vector<GridSample>& grid, const Stro
                                  const HeldOutErrors& base, const HeldOutErrors& with) {
   if (with.adjusted_against && with.adjusted_against == base.predictions.get()) return with.cycle_adjustment;
   if (!base.folds || !with.folds) return {};
-  const std::vector<float> base_runs =
-      base.predictions ? *base.predictions : heldOutPredictions(grid, strokes, base);
-  return meanSquareDifferences(strokes, base_runs, heldOutPredictions(grid, strokes, with));
+  // Each side's kept free runs where it has them.
+  const auto runsOf = [&](const HeldOutErrors& errors, std::vector<float>* own) -> const std::vector<float>& {
+    if (errors.predictions) return *errors.predictions;
+    *own = heldOutPredictions(grid, strokes, errors);
+    return *own;
+  };
+  std::vector<float> base_own, with_own;
+  return meanSquareDifferences(strokes, runsOf(base, &base_own), runsOf(with, &with_own));
 }
 
 // Which of the two held-out groups a cycle is in (the cycles before `split`, the rest), and on how many
