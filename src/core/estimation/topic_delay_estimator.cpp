@@ -849,8 +849,10 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
   // pressure looks like early position and valve), then coordinate descent along position, valve and both
   // together refines it on all windows.
   std::vector<std::size_t> coarse_starts;
-  // At most kCoarseWindows windows, spread over the stretch, integrated in steps of the map's own step.
-  const std::size_t coarse_stride = std::max<std::size_t>(1, starts.size() / kCoarseWindows);
+  // At most kCoarseWindows windows (rounding the stride down took up to twice as many), spread over the
+  // stretch, integrated in steps of the map's own step.
+  const std::size_t coarse_stride =
+      std::max<std::size_t>(1, (starts.size() + kCoarseWindows - 1) / kCoarseWindows);
   for (std::size_t i = 0; i < starts.size(); i += coarse_stride) coarse_starts.push_back(starts[i]);
   WhiteNoiseEstimator pressure_noise(4);
   for (std::size_t i = 2; i < end; ++i) {
