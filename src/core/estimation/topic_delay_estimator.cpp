@@ -845,9 +845,9 @@ TopicDelayEstimate estimateTopicDelays(const std::vector<GridSample>& grid,
                 std::to_string(excited_samples) + ") to estimate the topics' clock offsets";
     return e;
   }
-  // A coarse map over both offsets finds the basin (the offsets interact: a late
-  // pressure looks like early position and valve), then coordinate descent along position, valve and both
-  // together refines it on all windows.
+  // A coarse map over both offsets finds the basins (the offsets interact: a late pressure looks like early
+  // position and valve), then squares of shifts around each and a round of coordinate descent on the best
+  // refine it on all windows (refineBasins).
   std::vector<std::size_t> coarse_starts;
   // At most kCoarseWindows windows (rounding the stride down took up to twice as many), spread over the
   // stretch, integrated in steps of the map's own step.
