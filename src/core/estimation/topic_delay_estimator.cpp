@@ -184,22 +184,16 @@ class BalanceCost {
   // the 625 pairs integrated whole were half of the offsets' time). On up to `jobs` threads (no cache kept).
   std::vector<double> costMap(const std::vector<double>& position_shifts,
                               const std::vector<double>& valve_shifts, int jobs) const {
-    std::vector<std::vector<PositionPart>> x(position_shifts.size());
-    std::vector<std::vector<ValvePart>> y(valve_shifts.size());
-    std::vector<Sums> x_sums(position_shifts.size()), y_sums(valve_shifts.size());
-    partsAndBlocks(position_shifts, valve_shifts, jobs, &x, &y, &x_sums, &y_sums);
-    std::vector<double> costs(position_shifts.size() * valve_shifts.size());
-    parallelFor(position_shifts.size(), jobs, [&](std::size_t i) {
-      for (std::size_t j = 0; j < valve_shifts.size(); ++j) {
-        Sums sums = pairSums(x[i], y[j], x_sums[i], y_sums[j], pressure_block_);
-        costs[i * valve_shifts.size() + j] = solve(sums, false).rms;
-      }
-    });
-    return costs;
+    std::vector<std::pair<double, double>> pairs;
+    pairs.reserve(position_shifts.size() * valve_shifts.size());
+    for (double x : position_shifts) {
+      for (double v : valve_shifts) pairs.emplace_back(x, v);
+    }
+    return costsAt(pairs, jobs);
   }
-  // The cost at each pair of shifts [samples] (position, valve), as costMap: each distinct shift's parts
-  // once, on up to `jobs` threads, each pair from blocks (no cache kept: the line searches' points of one
-  // stage side by side).
+  // The cost at each pair of shifts [samples] (position, valve): each distinct shift's parts once and each
+  // pair from blocks, on up to `jobs` threads (no cache kept: the line searches' points of one stage, the
+  // squares and the map side by side).
   std::vector<double> costsAt(const std::vector<std::pair<double, double>>& pairs, int jobs) const {
     std::vector<double> position_shifts, valve_shifts;
     std::vector<std::size_t> x_of(pairs.size()), y_of(pairs.size());
@@ -218,10 +212,10 @@ class BalanceCost {
     std::vector<Sums> x_sums(position_shifts.size()), y_sums(valve_shifts.size());
     partsAndBlocks(position_shifts, valve_shifts, jobs, &x, &y, &x_sums, &y_sums);
     std::vector<double> costs(pairs.size());
-    for (std::size_t k = 0; k < pairs.size(); ++k) {
+    parallelFor(pairs.size(), jobs, [&](std::size_t k) {
       Sums sums = pairSums(x[x_of[k]], y[y_of[k]], x_sums[x_of[k]], y_sums[y_of[k]], pressure_block_);
       costs[k] = solve(sums, false).rms;
-    }
+    });
     return costs;
   }
   double cost(double position_shift, double valve_shift) const {
@@ -504,6 +498,15 @@ class BalanceCost {
   mutable PartsAt<ValvePart> valve_cache_;
 };
 
+// The parabola's vertex through three costs `spacing` apart, as an offset from the middle one (0 where they
+// are not convex): through their squares, the sum of squares being what is quadratic near the minimum.
+double parabolaVertex(double minus, double middle, double plus, double spacing) {
+  const double s_minus = minus * minus, s0 = middle * middle, s_plus = plus * plus;
+  const double second = s_minus - 2.0 * s0 + s_plus;
+  if (!(second > 0.0) || !std::isfinite(second)) return 0.0;
+  return spacing * 0.5 * (s_minus - s_plus) / second;
+}
+
 struct LineSearch {
   double best = 0.0;  // [samples]
   double best_cost = 0.0;
@@ -567,10 +570,7 @@ LineSearch searchShift(const Costs& costs, double range) {
   LineSearch result;
   result.best = best;
   result.best_cost = best_cost;
-  // The parabola through the squares (the sum of squares is what is quadratic in the shift near its minimum).
-  const double s_minus = f_minus * f_minus, s0 = best_cost * best_cost, s_plus = f_plus * f_plus;
-  const double second = s_minus - 2.0 * s0 + s_plus;
-  if (second > 0.0 && std::isfinite(second)) result.best = best + 0.25 * 0.5 * (s_minus - s_plus) / second;
+  result.best = best + parabolaVertex(f_minus, best_cost, f_plus, 0.25);
   return result;
 }
 
@@ -689,15 +689,6 @@ struct Refined {
   double position, valve, cost;
 };
 
-// The parabola's vertex through three costs `spacing` apart, as an offset from the middle one (0 where they
-// are not convex): through their squares, the sum of squares being what is quadratic near the minimum.
-double parabolaVertex(double minus, double middle, double plus, double spacing) {
-  const double s_minus = minus * minus, s0 = middle * middle, s_plus = plus * plus;
-  const double second = s_minus - 2.0 * s0 + s_plus;
-  if (!(second > 0.0) || !std::isfinite(second)) return 0.0;
-  return spacing * 0.5 * (s_minus - s_plus) / second;
-}
-
 // The lowest point of the cost on the square of (2 half + 1)^2 pairs of shifts `spacing` apart around
 // (position, valve) [samples]; with `vertex`, moved along each offset to the parabola through its
 // neighbours where both lie on the square. Each position shift's and each valve shift's parts are made
@@ -723,40 +714,42 @@ Refined lowestOnSquare(const BalanceCost& cost, double position, double valve, i
   if (i > 0 && i + 1 < positions.size())
     r.position += parabolaVertex(at(i - 1, j), r.cost, at(i + 1, j), spacing);
   if (j > 0 && j + 1 < m) r.valve += parabolaVertex(at(i, j - 1), r.cost, at(i, j + 1), spacing);
-  r.cost = cost.cost(r.position, r.valve);
+  r.cost = cost.costsAt({{r.position, r.valve}}, 1).front();
   return r;
+}
+
+// The costs searchShift asks for along (dx, dv) per unit of shift from (position, valve), read when asked
+// (the caller moves them between searches), each stage's points side by side.
+auto costsAlong(const BalanceCost& cost, const double& position, const double& valve, double dx, double dv,
+                int jobs) {
+  return [&cost, &position, &valve, dx, dv, jobs](const std::vector<double>& shifts) {
+    std::vector<std::pair<double, double>> pairs;
+    for (double shift : shifts) pairs.emplace_back(position + dx * shift, valve + dv * shift);
+    return cost.costsAt(pairs, jobs);
+  };
 }
 
 // One round of coordinate descent from `r` within `range` samples: both offsets together, then position,
 // then valve.
 Refined refineRound(const BalanceCost& cost, Refined r, double range, int jobs) {
-  // The costs along (dx, dv) per unit of shift from r, each stage's points side by side.
-  const auto along = [&](double dx, double dv) {
-    return [&cost, &r, dx, dv, jobs](const std::vector<double>& shifts) {
-      std::vector<std::pair<double, double>> pairs;
-      for (double shift : shifts) pairs.emplace_back(r.position + dx * shift, r.valve + dv * shift);
-      return cost.costsAt(pairs, jobs);
-    };
-  };
-  const LineSearch both = searchShift(along(1.0, 1.0), range);
+  const LineSearch both = searchShift(costsAlong(cost, r.position, r.valve, 1.0, 1.0, jobs), range);
   r.position += both.best;
   r.valve += both.best;
-  r.position += searchShift(along(1.0, 0.0), range).best;
-  r.valve += searchShift(along(0.0, 1.0), range).best;
+  r.position += searchShift(costsAlong(cost, r.position, r.valve, 1.0, 0.0, jobs), range).best;
+  r.valve += searchShift(costsAlong(cost, r.position, r.valve, 0.0, 1.0, jobs), range).best;
   r.cost = cost.cost(r.position, r.valve);
   return r;
 }
 
 // Each basin searched on a square of whole samples as wide as the map's step and a sample more, then on a
 // square of quarter samples around its lowest point with the parabolas; the lowest wins. The basins on up
-// to `jobs` threads (costMap keeps no cache; the parabola's point is costed on each thread's own copy).
+// to `jobs` threads (the squares keep no cache).
 Refined refineBasins(const BalanceCost& cost, const std::vector<MapPoint>& basins, double step, int jobs) {
   std::vector<Refined> rounds(basins.size());
   parallelFor(basins.size(), jobs, [&](std::size_t b) {
-    const BalanceCost own = cost;
     const Refined whole =
-        lowestOnSquare(own, basins[b].position, basins[b].valve, static_cast<int>(step) + 1, 1.0, false);
-    rounds[b] = lowestOnSquare(own, whole.position, whole.valve, 3, 0.25, true);
+        lowestOnSquare(cost, basins[b].position, basins[b].valve, static_cast<int>(step) + 1, 1.0, false);
+    rounds[b] = lowestOnSquare(cost, whole.position, whole.valve, 3, 0.25, true);
   });
   Refined best{0.0, 0.0, std::numeric_limits<double>::infinity()};
   for (const Refined& r : rounds) {
@@ -799,22 +792,8 @@ void setUncertainties(const BalanceCost& cost, const BalanceCost& half_windows, 
   };
   double x_half = position, v_half = valve;
   for (int round = 0; round < 2; ++round) {
-    x_half += searchShift(
-                  [&](const std::vector<double>& shifts) {
-                    std::vector<std::pair<double, double>> pairs;
-                    for (double shift : shifts) pairs.emplace_back(x_half + shift, v_half);
-                    return half_windows.costsAt(pairs, jobs);
-                  },
-                  1.0)
-                  .best;
-    v_half += searchShift(
-                  [&](const std::vector<double>& shifts) {
-                    std::vector<std::pair<double, double>> pairs;
-                    for (double shift : shifts) pairs.emplace_back(x_half, v_half + shift);
-                    return half_windows.costsAt(pairs, jobs);
-                  },
-                  1.0)
-                  .best;
+    x_half += searchShift(costsAlong(half_windows, x_half, v_half, 1.0, 0.0, jobs), 1.0).best;
+    v_half += searchShift(costsAlong(half_windows, x_half, v_half, 0.0, 1.0, jobs), 1.0).best;
   }
   // And a floor of an eighth of a sample: the offsets come from interpolating between samples, which on the
   // simulated presses was not finer than that (errors up to 0.23 ms on a 1 ms grid; the two parts above
