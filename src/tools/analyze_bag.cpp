@@ -48,11 +48,10 @@ const char* kUsage =
     "  default the search runs only when it is).\n"
     "  The sample period, filter widths and identification period are chosen from the recording's first\n"
     "  seconds (the settings study run on it; summary.yaml settings: says what and why) unless configured;\n"
-    "  --fixed-settings takes the configured (or the paper's default) values as they are; a configured "
-    "valve\n"
-    "  model then drives the free run (without one the measured spool does, and the summary warns).\n"
-    "  --jobs N: threads for the effect ranking (default: one per core; analyze_trend runs bags side by "
-    "side\n"
+    "  --fixed-settings takes the configured (or the paper's default) values as they are; a configured\n"
+    "  valve model then drives the free run (without one the measured spool does, and the summary warns).\n"
+    "  --jobs N: threads for the effect ranking (default: one per core; analyze_trend runs bags side "
+    "by side\n"
     "  with one each).\n";
 
 struct Options {
@@ -480,15 +479,7 @@ TopicDelayEstimate estimateClockOffsets(OfflineAnalysis& analysis, Identificatio
   return delays;
 }
 
-// --fixed-settings takes the configured values as they are: a configured valve model drives the free run.
-// The survey lets a model drive it only where it follows the measured spool; without one the measured
-// spool's noise drove it, which a shut valve integrates: a clean fast press analysed with the very settings
-// and valve model the survey had chosen ran 3.9 bar off (0.21 bar with the survey) and was told its error
-// was structured and not explained by the library.
-void fixedValveModel(const std::set<std::string>& configured, IdentificationConfig* config) {
-  if (valveModelConfigured(configured)) config->valve_model_drives_free_run = true;
-}
-
+// --fixed-settings without a configured valve model (takeConfiguredValveModel says why it matters).
 void warnIfTheMeasuredSpoolDrivesTheFreeRun(const IdentificationConfig& config,
                                             const std::vector<GridSample>& grid,
                                             std::vector<AnalysisWarning>* warnings) {
@@ -496,8 +487,7 @@ void warnIfTheMeasuredSpoolDrivesTheFreeRun(const IdentificationConfig& config,
   warnings->push_back(
       {WarningCode::kValveModel,
        "--fixed-settings without a configured valve model: the measured spool drives the free run, and a "
-       "shut "
-       "valve integrates its noise (a clean fast press ran 3.9 bar off and was told its error was "
+       "shut valve integrates its noise (a clean fast press ran 3.9 bar off and was told its error was "
        "structured): configure the valve model (valve_natural_frequency, valve_damping, valve_gain, "
        "valve_dead_time) or leave out --fixed-settings, whose survey fits it to the recording's operation"});
 }
@@ -630,7 +620,7 @@ int run(int argc, char** argv) {
   const auto started = std::chrono::steady_clock::now();
 
   const std::set<std::string> configured(configuration.keys.begin(), configuration.keys.end());
-  if (options.fixed_settings) fixedValveModel(configured, &config);
+  if (options.fixed_settings) takeConfiguredValveModel(configured, &config);
   SurveyThenAnalysis surveyed(config, configured, !options.fixed_settings, options.jobs, log);
   BagPass pass = readInputs(options.bag, names, topics.joint_name, surveyed, input, log);
   OfflineAnalysis* analysis = &surveyed.analysis();

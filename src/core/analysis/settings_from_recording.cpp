@@ -318,6 +318,10 @@ bool valveModelConfigured(const std::set<std::string>& keys) {
          keys.count("valve_dead_time");
 }
 
+void takeConfiguredValveModel(const std::set<std::string>& configured_keys, IdentificationConfig* config) {
+  if (valveModelConfigured(configured_keys)) config->valve_model_drives_free_run = true;
+}
+
 SettingsFromRecording::SettingsFromRecording(const IdentificationConfig& config, std::set<std::string> configured_keys,
                                              double survey_seconds, std::size_t max_messages)
     : config_(config), configured_(std::move(configured_keys)), survey_seconds_(survey_seconds),

@@ -81,7 +81,11 @@ LiveIdentification::LiveIdentification(const IdentificationConfig& config,
   // The monitor estimates the clock offsets on its first ranking window with strokes (a session shorter
   // than the survey is corrected too); the survey's estimate, at the finest period on all its seconds,
   // supersedes it.
-  if (settings_.choose_settings) startSurvey();
+  if (settings_.choose_settings) {
+    startSurvey();
+  } else {
+    takeConfiguredValveModel(settings_.configured, &config_);
+  }
   rebuild();
 }
 

@@ -90,8 +90,8 @@ double solveOutputError(const std::vector<ValveSample>& samples, double max_gap,
   options.linear_solver_type = ceres::DENSE_QR;
   options.max_num_iterations = iterations;
   options.function_tolerance = 1e-5;  // a thousandth of the noise's share of the cost
-  options.max_num_line_search_step_size_iterations =
-      0;  // as in refineByOutputError: no Jacobian per candidate
+  // No projected line search (refineByOutputError says why: a Jacobian more per candidate).
+  options.max_num_line_search_step_size_iterations = 0;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);

@@ -155,6 +155,18 @@ TEST(LiveIdentification, WithoutTheSurveyTheConfiguredSettingsRunAndTheMonitorEs
   EXPECT_NEAR(fixed.live->timing().applied_delays[1], 0.010, 1e-3);
 }
 
+// Without the survey nothing fits the valve model to the operation: a configured one drives the free run as
+// it is (takeConfiguredValveModel), as under analyze_bag --fixed-settings; the default one does not.
+TEST(LiveIdentification, WithoutTheSurveyAConfiguredValveModelDrivesTheFreeRun) {
+  const SimulatorConfig plant = pressClassPlant(PressClass::kFastMechanical, 0);
+  const LivePress configured(plant, fixedSettings(), {"valve_natural_frequency", "valve_dead_time"});
+  EXPECT_TRUE(configured.live->config().valve_model_drives_free_run);
+  const LivePress assumed(plant, fixedSettings());
+  EXPECT_FALSE(assumed.live->config().valve_model_drives_free_run);
+  const LivePress surveying(plant, surveyed(), {"valve_natural_frequency"});
+  EXPECT_FALSE(surveying.live->config().valve_model_drives_free_run) << "the survey decides from the spool";
+}
+
 TEST(LiveIdentification, StampsJumpingBackDuringTheSurveyStartItOver) {
   const SimulatorConfig plant = pressClassPlant(PressClass::kSlowHydraulic, 0);
   LivePress looped(plant, surveyed());
