@@ -185,6 +185,9 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
   if (std::isfinite(choice->position_rate_error)) {
     out << YAML::Key << "position_rate_error" << YAML::Value << choice->position_rate_error;
   }
+  if (std::isfinite(choice->valve_rate_error)) {
+    out << YAML::Key << "valve_rate_error" << YAML::Value << choice->valve_rate_error;
+  }
   if (std::isfinite(choice->numerical_error)) {
     out << YAML::Key << "numerical_error" << YAML::Value << choice->numerical_error;
   }

@@ -647,7 +647,13 @@ int run(int argc, char** argv) {
   input.duration = std::isfinite(pass.last - pass.first) ? pass.last - pass.first : 0.0;
   input.start = std::isfinite(pass.first) ? pass.first : 0.0;
   const bool partial = readingWarnings(pass, names, &warnings, log);
-  if (options.fixed_settings) warnIfTheMeasuredSpoolDrivesTheFreeRun(config, analysis->grid(), &warnings);
+  if (options.fixed_settings) {
+    warnIfTheMeasuredSpoolDrivesTheFreeRun(config, analysis->grid(), &warnings);
+    const auto valve_messages = input.messages[static_cast<int>(InputStream::kValve)];
+    const std::string valve_rate =
+        valveRateUnstudiedWarning(config, valve_messages > 1 ? input.duration / (valve_messages - 1) : 0.0);
+    if (!valve_rate.empty()) warnings.push_back({WarningCode::kResolutionLimited, valve_rate});
+  }
 
   analysis->proposeAlways(options.propose);
   if (surveyed.choice()) analysis->setResolution(surveyed.choice()->resolution_error, surveyed.choice()->resolution_remedy);

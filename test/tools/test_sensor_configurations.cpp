@@ -333,12 +333,11 @@ TEST_F(RecordingEdges, ASweepFromAContinuousCommandNeedsNoHoldCorrection) {
 TEST_F(RecordingEdges, AValveReportedSlowerThanItsAmplifierUpdatesIsFlaggedWithBothFits) {
   const std::string bag = kWork + "/slow_valve.bag";
   ASSERT_EQ(run(kTools + "/simulate_bag " + bag + " --cycles 1 --sweep --rates 1000,1000,250 --seed 9").status, 0);
+  // The sweep's warning (code valve_model); the survey's study of the valve topic's rate says its own
+  // (resolution_limited) where the amplifier is faster than the messages.
   const auto hold_warning = [](const Analysis& a) {
-    for (const auto& w : a.summary["warnings"]) {
-      const std::string text = w.as<std::string>();
-      if (text.find("valve_command_hold") != std::string::npos) return text;
-    }
-    return std::string();
+    const std::string text = die_cushion_ident::testing::warningWithCode(a.summary, "valve_model");
+    return text.find("valve_command_hold") != std::string::npos ? text : std::string();
   };
   const Analysis assumed = analyze(bag, configFile(SensorConfiguration()), kWork + "/slow_valve_default");
   ASSERT_TRUE(assumed.summary["valve"]) << assumed.output;

@@ -29,7 +29,8 @@ ServoValveParameters fromVector(const double* v) {
   return p;
 }
 
-// Measured minus modelled spool at every sample, the model restarted at the measurement after a gap.
+// Measured minus modelled spool at every sample (0 at a command without a spool reading), the model
+// restarted at the measurement (else where it was) after a gap.
 void residuals(const std::vector<ValveSample>& samples, const ServoValveParameters& valve, double max_gap,
                double* out) {
   ServoValve model = ServoValve::exact(valve);
@@ -37,8 +38,11 @@ void residuals(const std::vector<ValveSample>& samples, const ServoValveParamete
   for (std::size_t k = 0; k < samples.size(); ++k) {
     const ValveSample& s = samples[k];
     const double dt = s.t - last_t;
-    const double y = dt > 0.0 && dt <= max_gap ? model.advance(dt, last_u) : (model.reset(s.spool), s.spool);
-    out[k] = s.spool - y;
+    const bool measured = std::isfinite(s.spool);
+    const double y = dt > 0.0 && dt <= max_gap
+                         ? model.advance(dt, last_u)
+                         : (model.reset(measured ? s.spool : model.position()), model.position());
+    out[k] = measured ? s.spool - y : 0.0;
     last_t = s.t;
     last_u = s.voltage;
   }
@@ -56,10 +60,11 @@ struct OutputError {
   }
 };
 
-double rms(const std::vector<double>& r) {
+// Over the `measured` samples (the others' residuals are 0).
+double rms(const std::vector<double>& r, std::size_t measured) {
   double sum = 0.0;
   for (double e : r) sum += e * e;
-  return r.empty() ? 0.0 : std::sqrt(sum / r.size());
+  return measured == 0 ? 0.0 : std::sqrt(sum / measured);
 }
 
 // Ceres on the output error from `v` (changed in place); the final cost. The starts' search takes forward
@@ -102,12 +107,13 @@ double solveOutputError(const std::vector<ValveSample>& samples, double max_gap,
 
 namespace {
 
-// The finite samples with a measured spool, in time order, up to max_samples.
+// The samples with a finite stamp and command, in time order, from the first with a measured spool on (the
+// model starts there), up to max_samples.
 std::vector<ValveSample> usableSamples(const std::vector<ValveSample>& all, std::size_t max_samples) {
   std::vector<ValveSample> samples;
   for (const ValveSample& s : all) {
     if (samples.size() >= max_samples) break;
-    if (std::isfinite(s.t) && std::isfinite(s.voltage) && std::isfinite(s.spool) &&
+    if (std::isfinite(s.t) && std::isfinite(s.voltage) && (std::isfinite(s.spool) || !samples.empty()) &&
         (samples.empty() || s.t > samples.back().t)) {
       samples.push_back(s);
     }
@@ -212,17 +218,21 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
   ValveOperationFit fit;
   fit.parameters = start;
   const std::vector<ValveSample> samples = usableSamples(all, max_samples);
-  fit.samples = static_cast<int>(samples.size());
-  if (samples.size() < 200) {
-    fit.message = "too few valve messages with a measured spool (" + std::to_string(samples.size()) + ")";
+  std::vector<double> spool;  // the measured ones
+  for (const ValveSample& s : samples) {
+    if (std::isfinite(s.spool)) spool.push_back(s.spool);
+  }
+  fit.samples = static_cast<int>(spool.size());
+  if (spool.size() < 200) {
+    fit.message = "too few valve messages with a measured spool (" + std::to_string(spool.size()) + ")";
     return fit;
   }
   WhiteNoiseEstimator noise(1);
   double low = std::numeric_limits<double>::infinity(), high = -low;
-  for (std::size_t k = 1; k + 1 < samples.size(); ++k) {
-    noise.add(samples[k - 1].spool, samples[k].spool, samples[k + 1].spool);
-    low = std::min(low, samples[k].spool);
-    high = std::max(high, samples[k].spool);
+  for (std::size_t k = 1; k + 1 < spool.size(); ++k) {
+    noise.add(spool[k - 1], spool[k], spool[k + 1]);
+    low = std::min(low, spool[k]);
+    high = std::max(high, spool[k]);
   }
   fit.noise_sigma = noise.sigma();
   if (!(high - low > 20.0 * fit.noise_sigma)) {
@@ -232,7 +242,7 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
   }
   std::vector<double> r(samples.size());
   residuals(samples, start, max_gap, r.data());
-  fit.start_residual_rms = rms(r);
+  fit.start_residual_rms = rms(r, spool.size());
   // The starts are searched on the first stretch, the best refined on all: the spool near a valve's overlap
   // decides the flow, and 3000 samples left a 160 Hz valve at 164 Hz (a 0.6 bar free-run error on a fast
   // press whose flow starts at 3 % opening); refined on up to 15000 it came to 161-162 Hz.
@@ -244,7 +254,7 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
   fit.parameters = fromVector(best);
   fit.parameters.max_spool_velocity = start.max_spool_velocity;
   residuals(samples, fit.parameters, max_gap, r.data());
-  fit.residual_rms = rms(r);
+  fit.residual_rms = rms(r, spool.size());
   fit.success = std::isfinite(fit.residual_rms) && fit.residual_rms <= 3.0 * fit.noise_sigma;
   fit.message = formatted("%.1f Hz, damping %.2f, gain %.4g 1/V, dead time %.2f ms from %.0f valve messages of "
                           "operation: spool residual %.2g against a sensor noise of %.2g (%.2g with the model "

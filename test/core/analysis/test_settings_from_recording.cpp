@@ -72,6 +72,38 @@ TEST(SettingsFromRecording, ARecordingTooSlowForThePressSaysWhatToRecordInstead)
   EXPECT_NE(c.resolution_remedy.find("Hz or more"), std::string::npos) << c.resolution_remedy;
 }
 
+// A valve reported at 250 Hz by a 1 kHz controller: the commands between its messages are not in the
+// recording, and on a fast and on a small stiff press they decide the free run by more than the resolution's
+// share of the noise: the survey measures it (valve_rate_error), says so and what to record. Not where the
+// valve topic comes 4 times per period of the valve (1 kHz), nor where valve_command_hold says the amplifier
+// holds each command a whole message interval.
+TEST(SettingsFromRecording, AValveReportedSlowerThanItsAmplifierSaysWhatToRecord) {
+  for (PressClass press : {PressClass::kFastMechanical, PressClass::kSmallStiff}) {
+    SCOPED_TRACE(pressClassName(press));
+    SimulatorConfig plant = pressClassPlant(press, 1);
+    const SettingsChoice every = surveyed(plant);
+    EXPECT_TRUE(std::isnan(every.valve_rate_error)) << "1 kHz: " << every.valve_rate_error;
+    plant.sensors.valve_rate = 250.0;
+    const SettingsChoice c = surveyed(plant);
+    const double allowed = SettingsFromRecording::kResolutionShare * c.survey.pressure_noise;
+    std::printf("%s, valve at 250 Hz: valve-rate error %.3f bar (allowed %.3f)\n", pressClassName(press),
+                1e-5 * c.valve_rate_error, 1e-5 * allowed);
+    EXPECT_GT(c.valve_rate_error, allowed);
+    EXPECT_GE(c.resolution_error, c.valve_rate_error);
+    EXPECT_NE(c.resolution_limit.find("the valve topic comes every 4 ms"), std::string::npos)
+        << c.resolution_limit;
+    EXPECT_NE(c.resolution_remedy.find("record the valve topic at"), std::string::npos)
+        << c.resolution_remedy;
+    EXPECT_NE(c.resolution_remedy.find("valve_command_hold: 0.004"), std::string::npos)
+        << c.resolution_remedy;
+    IdentificationConfig config;
+    config.valve_command_hold = 0.004;
+    const SettingsChoice held = surveyed(plant, {"valve_command_hold"}, config);
+    EXPECT_TRUE(std::isnan(held.valve_rate_error))
+        << "an amplifier that holds each command to the next message";
+  }
+}
+
 // A configured sample period is kept, and judged: on the fast press 2 ms leaves a resolution error, named.
 TEST(SettingsFromRecording, AConfiguredPeriodIsKeptAndJudged) {
   IdentificationConfig config;

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <random>
 
 #include "die_cushion_ident/core/simulation/press_class.h"
@@ -50,6 +52,41 @@ TEST(ValveOperationFit, RecoversEachClassesValveFromItsOperation) {
     EXPECT_NEAR(fit.parameters.dead_time / plant.valve.dead_time, 1.0, 0.1) << fit.message;
     EXPECT_NEAR(fit.parameters.gain / plant.valve.gain, 1.0, 0.01) << fit.message;
     EXPECT_LT(fit.residual_rms, 1.1 * fit.noise_sigma) << fit.message;
+  }
+}
+
+// A valve reported at half its amplifier's rate (a 1 kHz controller, the spool read at every second command):
+// the commands without a spool reading still drive the model (NaN spool), and the fit finds the valve; the
+// same messages without those commands (each reported one held to the next, as the topic shows them) give a
+// valve the hold has bent. Two classes: the fast press's valve and the small stiff press's.
+TEST(ValveOperationFit, CommandsWithoutASpoolReadingDriveTheModel) {
+  for (PressClass press : {PressClass::kFastMechanical, PressClass::kSmallStiff}) {
+    SCOPED_TRACE(pressClassName(press));
+    const SimulatorConfig plant = pressClassPlant(press, 3);
+    DieCushionSimulator simulator(plant);
+    std::vector<SimulatedMeasurement> messages;
+    simulator.run(8 * simulator.program().cycleDuration(), &messages);
+    std::vector<ValveSample> every_command, reported;
+    for (const auto& m : messages) {
+      if (m.stream != InputStream::kValve) continue;
+      ValveSample s{m.sample.stamp, m.sample.first, m.sample.second};
+      if (every_command.size() % 2 == 1) s.spool = std::numeric_limits<double>::quiet_NaN();
+      every_command.push_back(s);
+      if (std::isfinite(s.spool)) reported.push_back(s);
+    }
+    const ValveOperationFit fit = fitValveToOperation(every_command, ServoValveParameters(), 0.02, 30000);
+    ASSERT_TRUE(fit.success) << fit.message;
+    EXPECT_EQ(fit.samples, static_cast<int>(reported.size())) << "the spool readings, not the commands";
+    EXPECT_NEAR(fit.parameters.natural_frequency / plant.valve.natural_frequency, 1.0, 0.05) << fit.message;
+    EXPECT_NEAR(fit.parameters.dead_time / plant.valve.dead_time, 1.0, 0.1) << fit.message;
+    const ValveOperationFit held = fitValveToOperation(reported, ServoValveParameters());
+    std::printf(
+        "%s: true %.1f Hz %.3f ms; every command %.1f Hz %.3f ms; reported ones held %.1f Hz %.3f ms\n",
+        pressClassName(press), plant.valve.natural_frequency, 1e3 * plant.valve.dead_time,
+        fit.parameters.natural_frequency, 1e3 * fit.parameters.dead_time, held.parameters.natural_frequency,
+        1e3 * held.parameters.dead_time);
+    EXPECT_GT(std::abs(held.parameters.dead_time / plant.valve.dead_time - 1.0), 0.2)
+        << "the commands between the readings matter: without them the dead time is bent";
   }
 }
 

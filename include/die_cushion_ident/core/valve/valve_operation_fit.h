@@ -26,7 +26,9 @@ struct ValveOperationFit {
 /// `start` and from starts at half and twice its natural frequency. `samples` in time order; stretches
 /// split at gaps longer than `max_gap`; the starts are searched on the first 3000 samples and the best
 /// refined on all, at most `max_samples` of them (the first ones). Succeeds when the spool moved (its range
-/// beyond 20 noise stds) and the fitted model explains it to within 3 times the sensor's noise. The
+/// beyond 20 noise stds) and the fitted model explains it to within 3 times the sensor's noise. A sample
+/// whose spool is NaN is a command the amplifier applied without a spool reading: it drives the model and
+/// has no residual (the survey tries commands between the valve topic's messages this way). The
 /// refinement on all samples evaluates its Jacobian on up to `jobs` threads (0: one per core); the result is
 /// the same on any number.
 constexpr std::size_t kValveOperationSamples = 15000;  ///< fitValveToOperation's default max_samples
