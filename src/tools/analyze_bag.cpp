@@ -116,12 +116,10 @@ class SurveyThenAnalysis {
   SurveyThenAnalysis(const IdentificationConfig& config, const std::set<std::string>& configured, bool survey, int jobs,
                      const std::function<void(const std::string&)>& log)
       : config_(config), jobs_(jobs), log_(log) {
-    if (survey) {
-      survey_ = std::make_unique<SettingsFromRecording>(config, configured);
-      survey_->setJobs(jobs);
-    } else {
-      start(config);
-    }
+    survey_ = std::make_unique<SettingsFromRecording>(config, configured);
+    survey_->setJobs(jobs);
+    // Without a survey the analysis starts at once; the survey's messages still give the clock offsets.
+    if (!survey) start(config);
   }
   /// [s] how long the bag's index says the recording is (a hint for reserving memory).
   void expect(double seconds) {
@@ -129,11 +127,12 @@ class SurveyThenAnalysis {
     if (analysis_) analysis_->reserve(expected_, 48 * 3600.0);
   }
   void push(InputStream stream, const StreamSample& sample) {
-    if (analysis_) {
-      analysis_->push(stream, sample);
-    } else if (!survey_->push(stream, sample)) {
-      chooseAndStart();
+    if (!analysis_) {
+      if (!survey_->push(stream, sample)) chooseAndStart();
+      return;
     }
+    analysis_->push(stream, sample);
+    if (survey_) survey_->push(stream, sample);  // keeps nothing once it has its seconds
   }
   /// The analysis, its settings chosen (at the end of a recording shorter than the survey, now).
   OfflineAnalysis& analysis() {
@@ -141,6 +140,12 @@ class SurveyThenAnalysis {
     return *analysis_;
   }
   const std::optional<SettingsChoice>& choice() const { return choice_; }
+  /// Without a survey: the topics' clock offsets on its messages at the finest period they support
+  /// (SettingsFromRecording::clockOffsets); nothing where it kept none.
+  std::optional<TopicDelayEstimate> clockOffsets() const {
+    if (!survey_ || survey_->messages().empty()) return std::nullopt;
+    return survey_->clockOffsets();
+  }
   const IdentificationConfig& config() const { return config_; }
 
  private:
@@ -463,19 +468,22 @@ bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStrea
   return partial;
 }
 
-// The clock offsets estimated on the whole recording; where they matter, they are set in `config` for a
-// second reading.
-TopicDelayEstimate estimateClockOffsets(OfflineAnalysis& analysis, IdentificationConfig* config,
-                                        bool valve_configured,
+// The clock offsets without a survey: on the survey's messages at the finest period they support where it
+// kept some (`surveyed`, its valve model's timing in it), else on the whole recording's grid; where they
+// matter, they are set in `config` for a second reading.
+TopicDelayEstimate estimateClockOffsets(OfflineAnalysis& analysis, std::optional<TopicDelayEstimate> surveyed,
+                                        IdentificationConfig* config, bool valve_configured,
                                         const std::function<void(const std::string&)>& log) {
   log("estimating the clock offsets between the topics");
-  TopicDelayEstimate delays = analysis.estimateTopicDelays();
-  if (delays.significant(config->resampler.sample_period)) {
+  TopicDelayEstimate delays = surveyed && surveyed->valid ? *surveyed : analysis.estimateTopicDelays();
+  const bool timed = surveyed && surveyed->valid;
+  if (delays.significant(config->resampler.sample_period) && (!timed || delays.distinguishable())) {
     config->topic_delays = delays.delays;
     log("position stamps " + milliseconds(delays.delays[1]) + ", valve stamps " + milliseconds(delays.delays[2]) +
         " against pressure: reading again with the stamps corrected");
   }
-  if (!valve_configured && !spoolMeasured(analysis.grid())) addValveModelTiming(config->valve, &delays);
+  if (!timed && !valve_configured && !spoolMeasured(analysis.grid()))
+    addValveModelTiming(config->valve, &delays);
   return delays;
 }
 
@@ -636,7 +644,8 @@ int run(int argc, char** argv) {
     delays = surveyed.choice()->delays;
     delays_applied = surveyed.choice()->delays_applied;
   } else if (!config.topicDelaysSet()) {
-    delays = estimateClockOffsets(*analysis, &config, valveModelConfigured(configured), log);
+    delays = estimateClockOffsets(*analysis, surveyed.clockOffsets(), &config,
+                                  valveModelConfigured(configured), log);
     delays_applied = delays->significant(config.resampler.sample_period);
     if (delays_applied) {
       reread = std::make_unique<SurveyThenAnalysis>(config, configured, false, options.jobs, log);

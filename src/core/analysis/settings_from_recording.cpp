@@ -509,6 +509,15 @@ std::string unmodelledSpoolWarning(const ServoValveParameters& valve) {
                    valve.natural_frequency, valve.damping, 1e3 * valve.dead_time);
 }
 
+// [s] the fastest topic's message interval (infinity where none has one).
+double finestInterval(const RecordingSurvey& survey) {
+  double finest = std::numeric_limits<double>::infinity();
+  for (double interval : survey.message_interval) {
+    if (interval > 0.0) finest = std::min(finest, interval);
+  }
+  return finest;
+}
+
 // The study's periods: from the paper's 2 ms down, halving, never finer than the finest topic's messages
 // (a grid between messages only interpolates them linearly, which undoes the free run's cubic inputs).
 std::vector<double> studyPeriods(double finest_interval) {
@@ -857,6 +866,15 @@ void searchClockOffsets(const Messages& messages, double finest_period, bool val
 
 }  // namespace
 
+TopicDelayEstimate SettingsFromRecording::clockOffsets() const {
+  SettingsChoice choice;
+  choice.config = config_;
+  surveyMessages(messages_, &choice.survey);
+  searchClockOffsets(messages_, studyPeriods(finestInterval(choice.survey)).back(),
+                     valveModelConfigured(configured_), jobs_, choice);
+  return choice.delays ? *choice.delays : TopicDelayEstimate();
+}
+
 SettingsChoice SettingsFromRecording::choose() const {
   const auto started = std::chrono::steady_clock::now();
   SettingsChoice choice;
@@ -879,10 +897,7 @@ SettingsChoice SettingsFromRecording::choose() const {
       return fit;
     });
   }
-  double finest_interval = std::numeric_limits<double>::infinity();
-  for (double i : survey.message_interval) {
-    if (i > 0.0) finest_interval = std::min(finest_interval, i);
-  }
+  const double finest_interval = finestInterval(survey);
   const double noise = survey.pressure_noise > 0.0 ? survey.pressure_noise : 0.2e5;
   const double allowed_change = kResolutionShare * noise;
   const std::vector<double> periods = studyPeriods(finest_interval);
