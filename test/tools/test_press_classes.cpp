@@ -262,6 +262,23 @@ TEST_F(PressClasses, AValveSlowerThanItsAmplifierIsNeverTakenForMissingPhysics) 
   }
 }
 
+// The same valve rate with an effect in the plant (a fast press's valve overlap, the valve at 250 Hz): the
+// effect is named, and what is left (14 bar, the valve's rate alone had been 3.9 bar on the model without
+// the overlap) is not handed to a custom effect without the recording's own share and what to record.
+TEST_F(PressClasses, WhatASlowValveTopicLeavesAfterAnEffectIsNamedAsTheRecordings) {
+  const Case c{"fast_mechanical", "valve_overlap", "--rates 1000,1000,250", 1, 9};
+  const Analysis a = analyze(record(c), kWork + "/" + c.name());
+  ASSERT_TRUE(a.status == 0 || a.status == 5) << a.output;
+  ASSERT_TRUE(a.summary["candidates"].size() > 0) << a.output;
+  EXPECT_EQ(a.summary["candidates"][0]["effect"].as<std::string>(), "valve_overlap");
+  const std::string conclusion = a.summary["adequacy"]["conclusion"].as<std::string>();
+  if (a.summary["adequacy"]["residual_unexplained"].as<bool>()) {
+    EXPECT_NE(conclusion.find("Part of it is the recording's own resolution"), std::string::npos)
+        << conclusion;
+    EXPECT_NE(conclusion.find("record the valve topic at"), std::string::npos) << conclusion;
+  }
+}
+
 // A grid finer than the pressure's messages holds interpolations between them, whose second differences read
 // the noise 7 times too small (0.03 against 0.21 bar at 0.5 ms from 1 kHz): a clean fast press's free run was
 // "7.6 times the noise". The ranking and the refinement judge by the noise the grid's samples hold: the
