@@ -870,9 +870,17 @@ TopicDelayEstimate SettingsFromRecording::clockOffsets() const {
   SettingsChoice choice;
   choice.config = config_;
   surveyMessages(messages_, &choice.survey);
-  searchClockOffsets(messages_, studyPeriods(finestInterval(choice.survey)).back(),
-                     valveModelConfigured(configured_), jobs_, choice);
-  return choice.delays ? *choice.delays : TopicDelayEstimate();
+  const double finest = studyPeriods(finestInterval(choice.survey)).back();
+  searchClockOffsets(messages_, finest, valveModelConfigured(configured_), jobs_, choice);
+  if (!choice.delays) return TopicDelayEstimate();
+  // The position's offset refined by the free run as the survey refines it, the model as configured.
+  const Level level = levelAt(atPeriod(choice.config, finest, 0.0), messages_);
+  const HydraulicEstimate fit = fitOnCycles(
+      level.grid, level.strokes, atPeriod(choice.config, finest, shortestDrawing(level)), INT_MIN, INT_MAX);
+  const HydraulicModel model =
+      HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
+  refinePositionDelay(model, fit, level.grid, finest, jobs_, choice);
+  return *choice.delays;
 }
 
 SettingsChoice SettingsFromRecording::choose() const {

@@ -138,10 +138,10 @@ class SettingsFromRecording {
   bool complete() const { return complete_; }
   /// The study on what was kept (whatever there is, at the end of a short recording).
   SettingsChoice choose() const;
-  /// The topics' clock offsets alone, as choose() searches them (at the finest period the kept messages
-  /// support; no refinement by the free run), for an analysis whose settings are fixed. Its own grid at the
-  /// paper's 2 ms gave a clean small stiff press's position -0.55 ms, applied it, and the free run ran 6.8
-  /// times the noise, "structured"; at 1 ms here 0.01 ms.
+  /// The topics' clock offsets alone, as choose() finds them (searched at the finest period the kept
+  /// messages support, the position's refined by the free run of the model as configured), for an analysis
+  /// whose settings are fixed. Its own grid at the paper's 2 ms gave a clean small stiff press's position
+  /// -0.55 ms, applied it, and the free run ran 6.8 times the noise, "structured"; at 1 ms here 0.01 ms.
   TopicDelayEstimate clockOffsets() const;
   /// The kept messages in arrival order, for the analysis to start with.
   const std::vector<std::pair<InputStream, StreamSample>>& messages() const { return messages_; }
