@@ -229,6 +229,19 @@ TEST_F(AnalyzeBag, FixedSettingsWithTheChosenValuesReadAsTheSurvey) {
       std::string::npos);
 }
 
+namespace {
+
+// The simulated press's own valve model (simulate_bag --write-truth) appended to its config, as a user gives
+// the one a sweep of the valve found.
+void configureTheTrueValve(const std::string& truth, const std::string& config) {
+  const YAML::Node valve = YAML::LoadFile(truth);
+  std::ofstream out(config, std::ios::app);
+  for (const char* key : {"valve_natural_frequency", "valve_damping", "valve_gain", "valve_dead_time"})
+    out << key << ": " << valve[key].as<double>() << "\n";
+}
+
+}  // namespace
+
 // --fixed-settings finds the topics' clock offsets as the survey does, refined by the free run: a large soft
 // press's position 10 ms late came to 9.62-9.78 ms without the refinement (the free run up to 2.2 times the
 // noise), 9.79-9.92 ms with it, as with the survey.
@@ -239,12 +252,7 @@ TEST_F(AnalyzeBag, FixedSettingsFindTheClockOffsetsAsTheSurveyDoes) {
                 " --stamp-offsets 0,0.01,0.005 --write-config " + config + " --write-truth " + truth)
                 .status,
             0);
-  {
-    const YAML::Node valve = YAML::LoadFile(truth);
-    std::ofstream out(config, std::ios::app);
-    for (const char* key : {"valve_natural_frequency", "valve_damping", "valve_gain", "valve_dead_time"})
-      out << key << ": " << valve[key].as<double>() << "\n";
-  }
+  configureTheTrueValve(truth, config);
   const YAML::Node fixed = analyze(bag, kWork + "/soft_late", "--config " + config + " --fixed-settings");
   EXPECT_NEAR(fixed["input"]["topic_delays"]["position"].as<double>(), 0.010, 3e-4);
   EXPECT_NEAR(fixed["input"]["topic_delays"]["valve"].as<double>(), 0.005, 3e-4);
@@ -263,12 +271,7 @@ TEST_F(AnalyzeBag, FixedSettingsOnAValveSlowerThanItsAmplifierSayWhatTheyCannotM
                 config + " --write-truth " + truth)
                 .status,
             0);
-  {
-    const YAML::Node valve = YAML::LoadFile(truth);
-    std::ofstream out(config, std::ios::app);
-    for (const char* key : {"valve_natural_frequency", "valve_damping", "valve_gain", "valve_dead_time"})
-      out << key << ": " << valve[key].as<double>() << "\n";
-  }
+  configureTheTrueValve(truth, config);
   const YAML::Node fixed =
       analyze(bag, kWork + "/fast_slow_valve", "--config " + config + " --fixed-settings");
   const std::string warning = die_cushion_ident::testing::warningWithCode(fixed, "resolution_limited");
