@@ -50,8 +50,8 @@ const char* kUsage =
     "  seconds (the settings study run on it; summary.yaml settings: says what and why) unless configured;\n"
     "  --fixed-settings takes the configured (or the paper's default) values as they are; a configured\n"
     "  valve model then drives the free run (without one the measured spool does, and the summary warns).\n"
-    "  --jobs N: threads for the effect ranking (default: one per core; analyze_trend runs bags side "
-    "by side\n"
+    "  --jobs N: threads for the effect ranking (default: one per core; "
+    "analyze_trend runs bags side by side\n"
     "  with one each).\n";
 
 struct Options {
@@ -116,9 +116,12 @@ class SurveyThenAnalysis {
   SurveyThenAnalysis(const IdentificationConfig& config, const std::set<std::string>& configured, bool survey, int jobs,
                      const std::function<void(const std::string&)>& log)
       : config_(config), jobs_(jobs), log_(log) {
-    survey_ = std::make_unique<SettingsFromRecording>(config, configured);
-    survey_->setJobs(jobs);
-    // Without a survey the analysis starts at once; the survey's messages still give the clock offsets.
+    // Without a survey the analysis starts at once; the survey's messages still give the clock offsets
+    // where they are to be estimated.
+    if (survey || !config.topicDelaysSet()) {
+      survey_ = std::make_unique<SettingsFromRecording>(config, configured);
+      survey_->setJobs(jobs);
+    }
     if (!survey) start(config);
   }
   /// [s] how long the bag's index says the recording is (a hint for reserving memory).
@@ -475,14 +478,14 @@ TopicDelayEstimate estimateClockOffsets(OfflineAnalysis& analysis, std::optional
                                         IdentificationConfig* config, bool valve_configured,
                                         const std::function<void(const std::string&)>& log) {
   log("estimating the clock offsets between the topics");
-  TopicDelayEstimate delays = surveyed && surveyed->valid ? *surveyed : analysis.estimateTopicDelays();
-  const bool timed = surveyed && surveyed->valid;
-  if (delays.significant(config->resampler.sample_period) && (!timed || delays.distinguishable())) {
+  const bool from_survey = surveyed && surveyed->valid;
+  TopicDelayEstimate delays = from_survey ? *surveyed : analysis.estimateTopicDelays();
+  if (delays.significant(config->resampler.sample_period) && (!from_survey || delays.distinguishable())) {
     config->topic_delays = delays.delays;
     log("position stamps " + milliseconds(delays.delays[1]) + ", valve stamps " + milliseconds(delays.delays[2]) +
         " against pressure: reading again with the stamps corrected");
   }
-  if (!timed && !valve_configured && !spoolMeasured(analysis.grid()))
+  if (!from_survey && !valve_configured && !spoolMeasured(analysis.grid()))
     addValveModelTiming(config->valve, &delays);
   return delays;
 }
@@ -646,7 +649,7 @@ int run(int argc, char** argv) {
   } else if (!config.topicDelaysSet()) {
     delays = estimateClockOffsets(*analysis, surveyed.clockOffsets(), &config,
                                   valveModelConfigured(configured), log);
-    delays_applied = delays->significant(config.resampler.sample_period);
+    delays_applied = config.topicDelaysSet();  // set by estimateClockOffsets where they matter
     if (delays_applied) {
       reread = std::make_unique<SurveyThenAnalysis>(config, configured, false, options.jobs, log);
       pass = readInputs(options.bag, names, topics.joint_name, *reread, input, log);

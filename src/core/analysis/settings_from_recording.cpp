@@ -311,6 +311,18 @@ double commandRoughness(const Messages& messages) {
 // spool (the sweep's warning counts the same per period of its highest frequency).
 constexpr double kValveMessagesPerPeriod = 4.0;
 
+// Whether commands a faster amplifier applied between valve messages `interval` [s] apart can move a valve
+// of natural frequency `frequency` [Hz]: fewer than kValveMessagesPerPeriod messages a period, and
+// valve_command_hold (`hold`) not saying that the amplifier holds each command a whole message interval.
+bool commandsBetweenMessagesMatter(double frequency, double interval, double hold) {
+  return interval > 0.0 && frequency * interval * kValveMessagesPerPeriod > 1.0 && !(hold >= 0.9 * interval);
+}
+
+// [Hz] the valve topic's rate that holds kValveMessagesPerPeriod messages a period of `frequency` [Hz].
+double valveRecordingRate(double frequency) {
+  return recordingRate(1.0 / (kValveMessagesPerPeriod * frequency));
+}
+
 // The valve topic's rate. The valve model drives the free run from the recorded commands, each held to the
 // next message, as if the amplifier updated at the message rate. Where the messages come fewer than 4 per
 // period of the valve's natural frequency, commands a faster amplifier applied between them move the spool
@@ -332,8 +344,7 @@ void studyValveRate(const Messages& messages, const IdentificationConfig& at_cho
   const ServoValveParameters& valve = choice.valve->parameters;
   const double interval = choice.survey.message_interval[static_cast<int>(InputStream::kValve)];
   const double frequency = valve.natural_frequency;
-  if (!(interval > 0.0) || !(frequency * interval * kValveMessagesPerPeriod > 1.0)) return;
-  if (at_chosen.valve_command_hold >= 0.9 * interval) return;
+  if (!commandsBetweenMessagesMatter(frequency, interval, at_chosen.valve_command_hold)) return;
   const double max_gap = at_chosen.resampler.max_gap;
   const ValveOperationFit between =
       fitValveToOperation(valveSamples(withCommandsBetween(messages, max_gap, 0.0)), valve, max_gap,
@@ -350,7 +361,7 @@ void studyValveRate(const Messages& messages, const IdentificationConfig& at_cho
       "record the valve topic at its amplifier's update rate (%.0f Hz or more: 4 messages per period of the "
       "valve's %.0f Hz), or, where the amplifier updates only as often as the topic, set "
       "valve_command_hold: %.3g",
-      recordingRate(1.0 / (kValveMessagesPerPeriod * frequency)), frequency, interval);
+      valveRecordingRate(frequency), frequency, interval);
   const std::string finding = formatted(
       "resolution-limited: the valve topic comes every %.3g ms, %.1f messages per period of the valve's "
       "%.0f Hz; commands a faster amplifier applied between them are not in the recording, and the free "
@@ -421,6 +432,29 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   return refined;
 }
 
+// The configured model identified on the whole grid at `period` (the survey's finest), and the position's
+// clock offset refined by its free run there: the resolution study's start, and, alone, the offsets for an
+// analysis whose settings are fixed (SettingsFromRecording::clockOffsets).
+struct FinestFit {
+  Level level;
+  double shortest_drawing = 0.0;
+  HydraulicEstimate fit;
+  std::optional<OutputErrorFit> refined;
+};
+
+FinestFit identifyAndRefineOffset(const Messages& messages, double period, const HydraulicModel& model,
+                                  int jobs, SettingsChoice& choice) {
+  FinestFit finest;
+  finest.level = levelAt(atPeriod(choice.config, period, 0.0), messages);
+  finest.shortest_drawing = shortestDrawing(finest.level);
+  finest.fit = fitOnCycles(finest.level.grid, finest.level.strokes,
+                           atPeriod(choice.config, period, finest.shortest_drawing), INT_MIN, INT_MAX);
+  const auto refining = std::chrono::steady_clock::now();
+  finest.refined = refinePositionDelay(model, finest.fit, finest.level.grid, period, jobs, choice);
+  choice.seconds_spent_on.clock_offsets += secondsSince(refining);
+  return finest;
+}
+
 }  // namespace
 
 bool valveModelConfigured(const std::set<std::string>& keys) {
@@ -434,9 +468,8 @@ void takeConfiguredValveModel(const std::set<std::string>& configured_keys, Iden
 
 std::string valveRateUnstudiedWarning(const IdentificationConfig& config, double valve_interval) {
   const double frequency = config.valve.natural_frequency;
-  if (!config.valve_model_drives_free_run || !(valve_interval > 0.0) ||
-      !(frequency * valve_interval * kValveMessagesPerPeriod > 1.0) ||
-      config.valve_command_hold >= 0.9 * valve_interval)
+  if (!config.valve_model_drives_free_run ||
+      !commandsBetweenMessagesMatter(frequency, valve_interval, config.valve_command_hold))
     return "";
   return formatted(
       "the valve topic comes every %.3g ms, %.1f messages per period of the valve model's %.0f Hz: "
@@ -445,8 +478,8 @@ std::string valveRateUnstudiedWarning(const IdentificationConfig& config, double
       "much. Leave out --fixed-settings (its survey does: settings.valve_rate_error), record the "
       "valve at %.0f Hz or more, or, where the amplifier updates only as often as the topic, set "
       "valve_command_hold: %.3g",
-      1e3 * valve_interval, 1.0 / (frequency * valve_interval), frequency,
-      recordingRate(1.0 / (kValveMessagesPerPeriod * frequency)), valve_interval);
+      1e3 * valve_interval, 1.0 / (frequency * valve_interval), frequency, valveRecordingRate(frequency),
+      valve_interval);
 }
 
 SettingsFromRecording::SettingsFromRecording(const IdentificationConfig& config, std::set<std::string> configured_keys,
@@ -605,18 +638,15 @@ class ResolutionStudy {
 // error read from it would hide the missing effect. Such a fit is not studied: the finest period the
 // recording supports is taken, and no resolution error is claimed.
 void ResolutionStudy::identifyAtTheFinestPeriod(StudyOutcome& outcome) {
-  levels_.back() = levelAt(atPeriod(choice_.config, periods_.back(), 0.0), messages_);
-  shortest_drawing_ = shortestDrawing(levels_.back());
+  FinestFit finest_fit = identifyAndRefineOffset(messages_, periods_.back(), model_, jobs_, choice_);
+  levels_.back() = std::move(finest_fit.level);
+  shortest_drawing_ = finest_fit.shortest_drawing;
   choice_.survey.cycles = levels_.back().strokes.cycles;
   choice_.survey.shortest_drawing = shortest_drawing_;
-  fit_ = fitOnCycles(levels_.back().grid, levels_.back().strokes,
-                     atPeriod(choice_.config, periods_.back(), shortest_drawing_), INT_MIN, INT_MAX);
-  // The position's offset refined by the free run: the finest level's grid read with it, and the refined
-  // parameters (fitted with it) studied.
-  const auto refining = std::chrono::steady_clock::now();
-  const std::optional<OutputErrorFit> refined =
-      refinePositionDelay(model_, fit_, levels_.back().grid, periods_.back(), jobs_, choice_);
-  choice_.seconds_spent_on.clock_offsets += secondsSince(refining);
+  fit_ = std::move(finest_fit.fit);
+  // Where the position's offset was refined by the free run: the finest level's grid read with it, and the
+  // refined parameters (fitted with it) studied.
+  const std::optional<OutputErrorFit>& refined = finest_fit.refined;
   if (refined) {
     Level& finest = levels_.back();
     finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice_.position_delay_shift);
@@ -872,14 +902,10 @@ TopicDelayEstimate SettingsFromRecording::clockOffsets() const {
   surveyMessages(messages_, &choice.survey);
   const double finest = studyPeriods(finestInterval(choice.survey)).back();
   searchClockOffsets(messages_, finest, valveModelConfigured(configured_), jobs_, choice);
-  if (!choice.delays) return TopicDelayEstimate();
   // The position's offset refined by the free run as the survey refines it, the model as configured.
-  const Level level = levelAt(atPeriod(choice.config, finest, 0.0), messages_);
-  const HydraulicEstimate fit = fitOnCycles(
-      level.grid, level.strokes, atPeriod(choice.config, finest, shortestDrawing(level)), INT_MIN, INT_MAX);
   const HydraulicModel model =
       HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
-  refinePositionDelay(model, fit, level.grid, finest, jobs_, choice);
+  identifyAndRefineOffset(messages_, finest, model, jobs_, choice);
   return *choice.delays;
 }
 
