@@ -525,8 +525,9 @@ std::vector<std::string> supersededSteps(const std::vector<GridSample>& grid,
   IdentificationConfig full = recommended;
   for (const auto* p : add) full.custom_effects.push_back(p->spec());
   const int split = ranking_options.split(strokes.cycles);
-  // Both sides' held-out free runs kept, each from the pass that measures it: the adjustment of the test
-  // compares them, and ran both models again for every step otherwise.
+  // Both sides' held-out free runs kept: the formulas' once here (its pass did not keep them), each step's
+  // model's from the pass that measures it. The test's adjustment compares them, and ran both models again
+  // for every step otherwise.
   HeldOutErrors with_all = add.back()->held_out;
   keepPredictions(grid, strokes, &with_all);
   for (const auto& step : ranking->steps) {
