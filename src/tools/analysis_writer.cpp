@@ -282,6 +282,14 @@ void emitFit(YAML::Emitter& out, const OfflineResult& r) {
   out << YAML::Key << "fit" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "samples" << YAML::Value << r.assessment.samples;
   out << YAML::Key << "cycles" << YAML::Value << r.strokes.cycles;
+  if (r.thinning.stride > 1) {  // a long recording: the cycles above are every stride-th of cycles_seen
+    out << YAML::Key << "thinned" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "stride" << YAML::Value << r.thinning.stride;
+    out << YAML::Key << "cycles_seen" << YAML::Value << r.thinning.cycles_seen;
+    out << YAML::Key << "cycles_kept" << YAML::Value << r.thinning.cycles_kept;
+    out << YAML::Key << "samples_read" << YAML::Value << r.grid_samples;
+    out << YAML::EndMap;
+  }
   if (r.model.updates > 0)
     out << YAML::Key << "equation_error_rms" << YAML::Value << r.model.equation_error_rms;
   if (r.assessment.samples > 0)
@@ -536,11 +544,12 @@ void writeEstimatesCsv(const std::string& path, const OfflineResult& r, const Hy
     csv.comma().text(name).comma().text(name + "_std");
   }
   csv.text(",equation_error_rms").endLine();
-  const EstimateSeries& series = r.estimates;
-  for (std::size_t k = 0; k < series.size(); ++k) {
-    csv.stamp(series.t(k));
-    for (int j = 0; j < series.parameters(); ++j) csv.comma().field(series.value(k, j)).comma().field(series.std(k, j));
-    csv.comma().field(series.equationError(k)).endLine();
+  EstimateSeries::Reader step(r.estimates);
+  const int parameters = r.estimates.parameters();
+  while (step.next()) {
+    csv.stamp(step.t());
+    for (int j = 0; j < parameters; ++j) csv.comma().field(step.value(j)).comma().field(step.std(j));
+    csv.comma().field(step.equationError()).endLine();
   }
   csv.close();
 }
@@ -616,15 +625,16 @@ class AnalysisBag {
   explicit AnalysisBag(const std::string& path) : bag_(path) {}
 
   void writeSeries(const OfflineResult& r, const std::vector<GridSample>& grid, const HydraulicModel& model) {
-    const EstimateSeries& series = r.estimates;
-    std::vector<double> values(series.parameters()), stds(series.parameters());
-    for (std::size_t k = 0; k < series.size(); ++k) {
-      for (int j = 0; j < series.parameters(); ++j) {
-        values[j] = series.value(k, j);
-        stds[j] = series.std(k, j);
+    const int parameters = r.estimates.parameters();
+    std::vector<double> values(parameters), stds(parameters);
+    EstimateSeries::Reader step(r.estimates);
+    while (step.next()) {
+      for (int j = 0; j < parameters; ++j) {
+        values[j] = step.value(j);
+        stds[j] = step.std(j);
       }
-      ParameterEstimate msg = toParameterEstimateMsg(model, values, stds, stampOf(series.t(k)));
-      msg.equation_error_rms = series.equationError(k);
+      ParameterEstimate msg = toParameterEstimateMsg(model, values, stds, stampOf(step.t()));
+      msg.equation_error_rms = step.equationError();
       bag_.write("/die_cushion_ident/estimate", msg.header.stamp, msg);
     }
     const auto& modelled = r.assessment.modelled;

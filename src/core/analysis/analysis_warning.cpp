@@ -44,6 +44,8 @@ const char* warningCodeName(WarningCode code) {
       return "valve_model";
     case WarningCode::kNotFinite:
       return "not_finite";
+    case WarningCode::kCyclesThinned:
+      return "cycles_thinned";
   }
   return "unknown";
 }

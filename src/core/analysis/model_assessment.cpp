@@ -6,17 +6,14 @@
 #include <functional>
 #include <limits>
 
-#include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/analysis/free_run_pressure.h"
 #include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
+#include "die_cushion_ident/core/analysis/stroke_segmenter.h"
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
 
 namespace {
-
-// A recording's last cycle is complete once the cushion is back within this share of its stroke from
-// where the ram met it.
-constexpr double kTopTolerance = 0.05;
 
 struct Accumulator {
   int n = 0;
@@ -88,43 +85,14 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
   StrokeSegmentation s;
   s.phase.resize(grid.size());
   s.samples = grid.size();
-  StrokePhaseClassifier classifier;
-  int cycle = -1;
-  // A recording may start mid-stroke: drawing seen first is not an impact, only drawing after a rest of a
-  // few samples is (the classifier calls its very first sample rest, whatever the cushion does).
-  constexpr int kMinRestSamples = 5;
-  StrokePhase previous = StrokePhase::kRest;
-  int rest_samples = 0;
-  // The last cycle counts when it is complete: the cushion went back up to where the ram met it.
-  bool returned = false;
-  double impact_x = 0.0, deepest = 0.0, last_x = std::numeric_limits<double>::quiet_NaN();
+  StrokeSegmenter segmenter;
   for (std::size_t i = 0; i < grid.size(); ++i) {
-    if (grid[i].discontinuity) {
-      classifier.reset();
-      rest_samples = 0;
-    }
-    const StrokePhase phase = classifier.classify(grid[i]);
-    const bool after_rest = previous == StrokePhase::kRest && rest_samples >= kMinRestSamples;
-    const bool impact = phase == StrokePhase::kImpact || (phase == StrokePhase::kDrawing && after_rest);
-    rest_samples = phase == StrokePhase::kRest ? rest_samples + 1 : 0;
-    if (impact && previous != StrokePhase::kImpact && previous != StrokePhase::kDrawing) {
-      ++cycle;
-      s.cycle_start.push_back(i);
-      returned = false;
-      impact_x = deepest = std::isfinite(grid[i].x) ? grid[i].x : 0.0;
-    }
-    if (phase == StrokePhase::kReturn) returned = true;
-    if (std::isfinite(grid[i].x)) {
-      last_x = grid[i].x;
-      deepest = std::max(deepest, last_x);
-    }
-    s.phase[i] = phase;
-    previous = phase;
+    const StrokeSegmenter::Step step = segmenter.push(grid[i]);
+    if (step.cycle_start) s.cycle_start.push_back(i);
+    s.phase[i] = step.phase;
   }
-  const double stroke = deepest - impact_x;
-  const bool last_complete = cycle >= 0 && returned && stroke > 0.0 &&
-                             last_x - impact_x <= kTopTolerance * stroke;
-  s.cycles = std::max(last_complete ? cycle + 1 : cycle, 0);
+  const int impacts = segmenter.impacts();
+  s.cycles = std::max(segmenter.lastCycleComplete() ? impacts : impacts - 1, 0);
   return s;
 }
 

@@ -81,28 +81,47 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits
   return found;
 }
 
-OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config) : config_(config), pipeline_(config) {
+namespace {
+// Samples kept before each kept cycle's impact where the grid is thinned: four times the filters' reach
+// and at least half a second, so that every fit's filters and free run have settled at the impact.
+std::size_t leadInSamples(const IdentificationConfig& config) {
+  const double half_second = std::ceil(0.5 / config.resampler.sample_period);
+  return static_cast<std::size_t>(
+      std::max(4.0 * (config.moving_average_width + config.derivative_width), half_second));
+}
+}  // namespace
+
+std::string thinnedInWords(const GridThinning& thinning, double sample_period) {
+  return formatted(
+             "the recording is longer than max_analysed_samples (%.0f s of grid kept at %.3g ms): the fit "
+             "to the whole recording, the free run, the uncertainty, the change search and the effect "
+             "ranking judged every %.0f",
+             thinning.samples_kept * sample_period, 1e3 * sample_period, thinning.stride) +
+         (thinning.stride == 2 ? "nd" : "th") +
+         formatted(
+             " press cycle, %.0f of %.0f, evenly spaced (the online estimate covers every sample); raise "
+             "max_analysed_samples to judge more of them",
+             thinning.cycles_kept, thinning.cycles_seen);
+}
+
+void GridCoverage::add(const GridSample& g) {
+  complete += g.complete ? 1 : 0;
+  with_velocity += g.complete && std::isfinite(g.v) ? 1 : 0;
+  if (std::isfinite(g.p)) highest = std::max(highest, static_cast<double>(g.p));
+}
+
+OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config)
+    : config_(config),
+      pipeline_(config),
+      grid_(static_cast<std::size_t>(config.max_analysed_samples), leadInSamples(config)) {
   config_.refine_held_out_fits = true;
   pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0]);
-  pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) { grid_.push_back(g); });
-  pipeline_.setStepCallback([this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
-}
-
-void EstimateSeries::reserve(std::size_t steps, int parameters) {
-  t_.reserve(steps);
-  values_.reserve(steps * static_cast<std::size_t>(parameters));
-  stds_.reserve(steps * static_cast<std::size_t>(parameters));
-  equation_error_.reserve(steps);
-}
-
-void EstimateSeries::add(const HydraulicEstimate& e) {
-  parameters_ = static_cast<int>(e.parameters.size());
-  t_.push_back(e.t);
-  for (const auto& p : e.parameters) {
-    values_.push_back(static_cast<float>(p.value));
-    stds_.push_back(static_cast<float>(p.std));
-  }
-  equation_error_.push_back(static_cast<float>(e.equation_error_rms));
+  pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) {
+    coverage_.add(g);
+    grid_.push(g);
+  });
+  pipeline_.setStepCallback(
+      [this](const HydraulicIdentifier& identifier) { estimates_.add(identifier.estimate()); });
 }
 
 // A valve reported much slower than the sweep's frequencies: the points depend on how long the amplifier
@@ -180,8 +199,6 @@ std::vector<std::string> implausibleParameters(const HydraulicModel& model, cons
 void OfflineAnalysis::reserve(double seconds, double max_seconds) {
   if (!(seconds > 0.0) || !(seconds <= max_seconds)) return;
   grid_.reserve(static_cast<std::size_t>(1.01 * seconds / config_.resampler.sample_period) + 1000);
-  estimates_.reserve(static_cast<std::size_t>(1.01 * seconds / config_.identification_period) + 100,
-                     pipeline_.identifier().model().parameterCount());
 }
 
 void OfflineAnalysis::endInput() {
@@ -192,7 +209,7 @@ void OfflineAnalysis::endInput() {
 
 TopicDelayEstimate OfflineAnalysis::estimateTopicDelays() {
   endInput();
-  return die_cushion_ident::estimateTopicDelays(grid_, config_);
+  return die_cushion_ident::estimateTopicDelays(grid_.grid(), config_);
 }
 
 OfflineResult OfflineAnalysis::finish(const std::function<void(const std::string&)>& progress) {
@@ -256,22 +273,6 @@ void warnRejectedMessages(const IdentificationConfig& config, OfflineResult& r) 
   }
 }
 
-// What the grid holds: samples with all three inputs, with a velocity, and the highest pressure.
-struct GridCoverage {
-  std::uint64_t complete = 0, with_velocity = 0;
-  double highest = -std::numeric_limits<double>::infinity();  // [Pa], for a hint about its unit
-};
-
-GridCoverage coverageOf(const std::vector<GridSample>& grid) {
-  GridCoverage c;
-  for (const GridSample& g : grid) {
-    c.complete += g.complete ? 1 : 0;
-    c.with_velocity += g.complete && std::isfinite(g.v) ? 1 : 0;
-    if (std::isfinite(g.p)) c.highest = std::max(c.highest, static_cast<double>(g.p));
-  }
-  return c;
-}
-
 // Whether the hydraulics can be identified at all: all three topics, overlapping in time.
 void decideHydraulics(const GridCoverage& coverage, OfflineResult& r) {
   r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0 && r.health[2].accepted > 0;
@@ -299,7 +300,8 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
   r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
   r.derived_velocity_samples = pipeline_.derivedVelocitySamples();
   r.messages = messages_;
-  r.grid_samples = grid_.size();
+  r.grid_samples = grid_.samplesSeen();
+  r.thinning = {grid_.stride(), grid_.cyclesSeen(), grid_.cyclesKept(), grid_.grid().size()};
   for (int s = 0; s < kInputStreamCount; ++s)
     r.health[s] = pipeline_.resampler().health(static_cast<InputStream>(s));
   r.restarts = pipeline_.resampler().restarts();
@@ -308,8 +310,11 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
       HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
   r.effects = model.effectNames();
   warnRejectedMessages(config_, r);
-  const GridCoverage coverage = coverageOf(grid_);
+  const GridCoverage& coverage = coverage_;
   decideHydraulics(coverage, r);
+  if (grid_.stride() > 1)
+    r.warnings.push_back(
+        {WarningCode::kCyclesThinned, thinnedInWords(r.thinning, config_.resampler.sample_period)});
   analyzeValveSweep(&r, tell);
   if (r.hydraulics) fitTheWholeRecording(model, coverage.with_velocity > 0, coverage.highest, &r, tell);
   if (r.hydraulics && r.model.updates == 0) {
@@ -329,9 +334,9 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
                  "the model comparison and the effect ranking could not run");
   }
   tell("segmenting the strokes");
-  r.strokes = segmentStrokes(grid_);
+  r.strokes = segmentStrokes(grid_.grid());
   tell("fitting the model to the whole recording");
-  r.model = fitOnCycles(grid_, r.strokes, config_, INT_MIN, INT_MAX);
+  r.model = fitOnCycles(grid_.grid(), r.strokes, config_, INT_MIN, INT_MAX);
   if (r.model.updates == 0 && highest < config_.min_pressure) {
     char text[320];
     std::snprintf(text, sizeof(text),
@@ -361,12 +366,12 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
                               "it down (more varied strokes would), or an effect the model lacks pulls it"});
   }
   tell("fitting each group of cycles alone (does a parameter change over the recording?)");
-  const CycleGroupFits cycle_groups(grid_, r.strokes, config_, 10, jobs_);
+  const CycleGroupFits cycle_groups(grid_.grid(), r.strokes, config_, 10, jobs_);
   for (const auto& spread : parametersThatVaryOverTheRecording(cycle_groups, r.model)) {
     r.warnings.push_back({WarningCode::kChangingParameter, spread});
   }
   tell("looking for an effect that starts within the recording");
-  r.onset = findEffectOnset(grid_, r.strokes, config_, kVariationSignificance, jobs_);
+  r.onset = findEffectOnset(grid_.grid(), r.strokes, config_, kVariationSignificance, jobs_);
   if (r.onset) {
     r.warnings.push_back({WarningCode::kChangeWithinRecording,
                           r.onset->explanation + ". The whole recording's fit averages over the change: " +
@@ -387,7 +392,7 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
     OutputErrorOptions refine;
     refine.jobs = jobs_;
     refine.pressure_noise = config_.grid_pressure_noise;
-    r.output_error = refineByOutputError(grid_, model, r.model.values(), r.model.standardDeviations(),
+    r.output_error = refineByOutputError(grid_.grid(), model, r.model.values(), r.model.standardDeviations(),
                                          config_.min_pressure, refine);
     if (r.output_error->improved) {
       for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
@@ -403,10 +408,10 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
   }
   tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
   HydraulicEstimate jackknife = equation_error;
-  const bool resampled = applyCycleJackknife(grid_, r.strokes, config_, &jackknife, 10, jobs_);
+  const bool resampled = applyCycleJackknife(grid_.grid(), r.strokes, config_, &jackknife, 10, jobs_);
   r.uncertainty = combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model);
   tell("running the model free against the measurement");
-  r.assessment = assessModel(grid_, r.strokes, model, r.model.values(), config_.min_pressure);
+  r.assessment = assessModel(grid_.grid(), r.strokes, model, r.model.values(), config_.min_pressure);
   if (r.assessment.samples == 0) {
     cannotRun(r, "the identified model could not be run against the measurement (no sample with pressure, "
                  "position, velocity and spool all known above min_pressure): no simulation error");
@@ -424,10 +429,10 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
     ranking_options.jobs = jobs_;
     ranking_options.resolution_error = resolution_error_;
     ranking_options.resolution_remedy = resolution_remedy_;
-    r.ranking = rankEffects(grid_, r.strokes, config_, ranking_options);
+    r.ranking = rankEffects(grid_.grid(), r.strokes, config_, ranking_options);
     if (r.ranking.residual_unexplained || always_propose_) {
       tell("searching for a formula for the error the library leaves");
-      addFormulaProposals(grid_, r.strokes, config_, &r.ranking);
+      addFormulaProposals(grid_.grid(), r.strokes, config_, &r.ranking);
     }
     r.ranking.recommended_held_out.predictions.reset();  // the base's free runs: 7 MB an hour, no longer read
     if (r.strokes.cycles == 0) {
@@ -446,7 +451,7 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
   }
 
   tell("looking for valve command steps at rest");
-  r.step_responses = findStepResponses(grid_);
+  r.step_responses = findStepResponses(grid_.grid());
   if (!r.step_responses.empty()) {
     const StepResponse& step = r.step_responses.front();
     if (config_.resampler.sample_period > step.recommendedMaxSamplingTime()) {

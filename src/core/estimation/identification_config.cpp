@@ -92,6 +92,7 @@ const NumericKey kNumericKeys[] = {
     {"topic_delays/position", [](IdentificationConfig& c) { return &c.topic_delays[1]; }},
     {"topic_delays/valve", [](IdentificationConfig& c) { return &c.topic_delays[2]; }},
     {"topic_delay_search", [](IdentificationConfig& c) { return &c.topic_delay_search; }},
+    {"max_analysed_samples", [](IdentificationConfig& c) { return &c.max_analysed_samples; }},
     {"min_plausible_pressure", [](IdentificationConfig& c) { return &c.min_plausible_pressure; }},
     {"max_plausible_pressure", [](IdentificationConfig& c) { return &c.max_plausible_pressure; }},
     {"plausible_stroke_margin", [](IdentificationConfig& c) { return &c.plausible_stroke_margin; }},
@@ -218,6 +219,7 @@ void checkEstimatorAndValve(const IdentificationConfig& config, Checker& c, doub
     c.range(key.c_str(), config.topic_delays[s], -1.0, 1.0, "s");
   }
   c.range("topic_delay_search", config.topic_delay_search, 0.0, 0.5, "s");
+  c.range("max_analysed_samples", config.max_analysed_samples, 1e5, 1e9, "samples");
   c.range("velocity_window", config.velocity_window, 2.0 * period, 1.0, "s");
 }
 

@@ -27,6 +27,7 @@ enum class WarningCode {
   kChangeWithinRecording,  ///< an effect that starts within the recording
   kValveModel,             ///< the valve model the analysis had to assume or replace
   kNotFinite,              ///< figures that could not be computed, written as null
+  kCyclesThinned,          ///< a long recording's cycle-based analyses judged evenly spaced cycles
 };
 
 /// The code's name in summary.yaml ("geometry_default", ...).

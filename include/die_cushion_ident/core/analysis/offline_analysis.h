@@ -3,49 +3,50 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/analysis/effect_ranking.h"
-#include "die_cushion_ident/core/estimation/identification_pipeline.h"
-#include "die_cushion_ident/core/analysis/model_assessment.h"
 #include "die_cushion_ident/core/analysis/effect_onset.h"
+#include "die_cushion_ident/core/analysis/effect_ranking.h"
+#include "die_cushion_ident/core/analysis/estimate_series.h"
+#include "die_cushion_ident/core/analysis/evenly_thinned_cycles.h"
+#include "die_cushion_ident/core/analysis/model_assessment.h"
 #include "die_cushion_ident/core/analysis/output_error_refinement.h"
 #include "die_cushion_ident/core/analysis/parameter_uncertainty.h"
 #include "die_cushion_ident/core/analysis/settings_from_recording.h"
-#include "die_cushion_ident/core/valve/recorded_sweep.h"
-#include "die_cushion_ident/core/valve/step_response.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/signal/message_noise.h"
+#include "die_cushion_ident/core/valve/recorded_sweep.h"
+#include "die_cushion_ident/core/valve/step_response.h"
 
 namespace die_cushion_ident {
 
-/// The online estimate at every identification step (for the time series in analysis.bag and CSV), stored
-/// flat in single precision: 100 steps per second over hours must not cost more than the grid itself
-/// (a vector pair per step was ~160 bytes; this is 8 + 4 (2n + 1)).
-class EstimateSeries {
- public:
-  void add(const HydraulicEstimate& e);
-  /// Room for `steps` estimates of `parameters` parameters (growth by doubling would hold up to twice that).
-  void reserve(std::size_t steps, int parameters);
-  std::size_t size() const { return t_.size(); }
-  int parameters() const { return parameters_; }
-  double t(std::size_t i) const { return t_[i]; }
-  double value(std::size_t i, int j) const { return values_[i * parameters_ + j]; }
-  double std(std::size_t i, int j) const { return stds_[i * parameters_ + j]; }
-  double equationError(std::size_t i) const { return equation_error_[i]; }
-
- private:
-  int parameters_ = 0;
-  std::vector<double> t_;
-  std::vector<float> values_, stds_, equation_error_;
+/// What the grid holds: samples with all three inputs, with a velocity, and the highest pressure; counted
+/// over every sample read, kept or not.
+struct GridCoverage {
+  std::uint64_t complete = 0, with_velocity = 0;
+  double highest = -std::numeric_limits<double>::infinity();  ///< [Pa], for a hint about its unit
+  void add(const GridSample& g);
 };
+
+/// How much of a long recording the cycle-based analyses judged (EvenlyThinnedCycles).
+struct GridThinning {
+  int stride = 1;       ///< every stride-th cycle was kept; 1: the whole recording
+  int cycles_seen = 0;  ///< impacts in the recording
+  int cycles_kept = 0;  ///< of them kept
+  std::size_t samples_kept = 0;
+};
+/// The warning a thinned analysis carries, in words.
+std::string thinnedInWords(const GridThinning& thinning, double sample_period);
 
 /// Everything analyze_bag reports.
 struct OfflineResult {
   std::uint64_t messages = 0;
-  std::uint64_t grid_samples = 0;
+  std::uint64_t grid_samples = 0;  ///< read; the analyses beyond the online estimate judged `thinning`'s
+  GridThinning thinning;
   std::vector<std::string> effects;
   /// The model fitted to the whole recording without forgetting (the best constant parameters); the
   /// online estimate with forgetting is in `estimates`.
@@ -145,7 +146,8 @@ class OfflineAnalysis {
   /// the result's ranking, step_responses, valve, warnings and partial.
   void explain(OfflineResult* result, const std::function<void(const std::string&)>& progress = {});
 
-  const std::vector<GridSample>& grid() const { return grid_; }
+  /// The grid the analyses judge: the whole recording's, or evenly spaced whole cycles of a long one.
+  const std::vector<GridSample>& grid() const { return grid_.grid(); }
   const IdentificationConfig& config() const { return config_; }
 
  private:
@@ -154,7 +156,8 @@ class OfflineAnalysis {
   double resolution_error_ = 0.0;
   std::string resolution_remedy_;
   IdentificationPipeline pipeline_;
-  std::vector<GridSample> grid_;
+  EvenlyThinnedCycles grid_;
+  GridCoverage coverage_;
   std::vector<ValveSample> valve_;
   EstimateSeries estimates_;
   SweepCandidateFilter valve_filter_;
