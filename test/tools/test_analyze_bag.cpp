@@ -435,6 +435,56 @@ bool anyWarningSays(const YAML::Node& summary, const std::string& text) {
 
 // analyze_bag reads bags itself (BagStreamReader): chunks compressed with lz4 or bz2 give exactly the
 // results of the uncompressed bag.
+// A recording longer than max_analysed_samples (issue 30): the fits, the free run and the ranking judge every
+// 2nd, 4th, ... press cycle, say so, and read as the whole recording does: the worn seal named missing, and
+// with it in the model the parameters within 3 of their stds and nothing missing; the online estimate still
+// covers every sample. Two press classes; the bound at its lowest (100 000 samples) so that a few minutes of
+// recording exceed it.
+TEST_F(AnalyzeBag, ALongRecordingIsJudgedOnEvenlySpacedCyclesAndReadsAsTheWhole) {
+  const std::string bag = kWork + "/long.bag", config = kWork + "/long.yaml", thin = kWork + "/long_thin.yaml";
+  for (const char* press : {"fast_mechanical --variation 1 --seed 5 --cycles 300",
+                            "small_stiff --variation 2 --seed 6 --cycles 160"}) {
+    SCOPED_TRACE(press);
+    ASSERT_EQ(run(kTools + "/simulate_bag " + bag + " --press " + press + " --plant-effects leakage" +
+                  " --write-config " + config)
+                  .status,
+              0);
+    {
+      std::ofstream out(thin);
+      out << std::ifstream(config).rdbuf() << "max_analysed_samples: 100000\n";
+    }
+    const YAML::Node whole = analyze(bag, kWork + "/long_whole", "--config " + config);
+    const YAML::Node thinned = analyze(bag, kWork + "/long_thinned", "--config " + thin);
+    EXPECT_FALSE(whole["fit"]["thinned"]);
+    EXPECT_EQ(die_cushion_ident::testing::warningWithCode(whole, "cycles_thinned"), "");
+    const YAML::Node kept = thinned["fit"]["thinned"];
+    ASSERT_TRUE(kept);
+    const int stride = kept["stride"].as<int>(), seen = kept["cycles_seen"].as<int>();
+    EXPECT_GE(stride, 2);
+    EXPECT_GE(seen, whole["fit"]["cycles"].as<int>()) << "every impact, the last cycle complete or not";
+    EXPECT_LE(seen, whole["fit"]["cycles"].as<int>() + 1);
+    EXPECT_EQ(kept["cycles_kept"].as<int>(), (seen + stride - 1) / stride);
+    EXPECT_NE(die_cushion_ident::testing::warningWithCode(thinned, "cycles_thinned").find("evenly spaced"),
+              std::string::npos);
+    for (const YAML::Node* s : {&whole, &thinned}) {
+      EXPECT_EQ((*s)["candidates"][0]["effect"].as<std::string>(), "leakage");
+      EXPECT_EQ((*s)["candidates"][0]["verdict"].as<std::string>(), "missing");
+    }
+    EXPECT_EQ(fileText(kWork + "/long_thinned/estimates.csv"), fileText(kWork + "/long_whole/estimates.csv"));
+
+    const YAML::Node sealed = analyze(bag, kWork + "/long_whole", "--config " + config + " --effects leakage");
+    const YAML::Node sealed_thinned =
+        analyze(bag, kWork + "/long_thinned", "--config " + thin + " --effects leakage");
+    for (const char* name : {"bulk_modulus", "valve_flow_gain", "dead_volume", "leakage_conductance"}) {
+      double std = NAN;
+      const double value = die_cushion_ident::testing::summaryParameter(sealed_thinned, name, &std);
+      EXPECT_NEAR(value, die_cushion_ident::testing::summaryParameter(sealed, name), 3.0 * std) << name;
+    }
+    for (const auto& candidate : sealed_thinned["candidates"])
+      EXPECT_NE(candidate["verdict"].as<std::string>(), "missing") << candidate["effect"].as<std::string>();
+  }
+}
+
 TEST_F(AnalyzeBag, CompressedBagsGiveTheSameResults) {
   const YAML::Node plain = analyze(kWork + "/leak.bag", kWork + "/plain");
   for (const char* compression : {"lz4", "bz2"}) {
