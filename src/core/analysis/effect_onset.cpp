@@ -136,16 +136,20 @@ std::optional<EffectOnset> effectStep(const std::string& name, const Identificat
   return onset;
 }
 
-// When the onset happened, the press's cycle period, and the onset in words.
-void describeOnset(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes, EffectOnset& o) {
+// When the onset happened, the press's cycle period, and the onset in words; in the recording's cycles where
+// the grid holds every cycle_stride-th.
+void describeOnset(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes, int cycle_stride,
+                   double recording_start, EffectOnset& o) {
   const std::size_t begin = strokes.range(o.cycle, o.cycle).first;
-  o.time = begin < grid.size() ? grid[begin].t - grid.front().t : 0.0;
+  const double start = std::isfinite(recording_start) ? recording_start : grid.front().t;
+  o.time = begin < grid.size() ? grid[begin].t - start : 0.0;
+  o.cycle *= cycle_stride;
   std::vector<double> periods;
   for (std::size_t c = 1; c < strokes.cycle_start.size(); ++c) {
     periods.push_back(grid[strokes.cycle_start[c]].t - grid[strokes.cycle_start[c - 1]].t);
   }
   std::nth_element(periods.begin(), periods.begin() + periods.size() / 2, periods.end());
-  o.cycle_period = periods.empty() ? 0.0 : periods[periods.size() / 2];
+  o.cycle_period = periods.empty() ? 0.0 : periods[periods.size() / 2] / cycle_stride;
   o.explanation =
       o.effect +
       formatted(" from press cycle %.0f on (its impact %.2f s into the recording): ", o.cycle, o.time) +
@@ -164,7 +168,7 @@ void describeOnset(const std::vector<GridSample>& grid, const StrokeSegmentation
 std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
                                            const StrokeSegmentation& strokes,
                                            const IdentificationConfig& config, double significance, int jobs,
-                                           int max_groups) {
+                                           int max_groups, int cycle_stride, double recording_start) {
   if (strokes.cycles < kMinimumCycles) return std::nullopt;
   int tests = 0;
   std::vector<std::pair<EffectOnset, IdentificationConfig>> steps;  // each effect's step, its model
@@ -192,7 +196,7 @@ std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
     best = key;
     found = onset;
   }
-  if (found) describeOnset(grid, strokes, *found);
+  if (found) describeOnset(grid, strokes, cycle_stride, recording_start, *found);
   return found;
 }
 

@@ -21,6 +21,7 @@ void EvenlyThinnedCycles::reserve(std::size_t samples) {
 
 void EvenlyThinnedCycles::push(const GridSample& sample) {
   const std::uint64_t index = samples_seen_++;
+  if (index == 0) first_time_ = sample.t;
   const StrokeSegmenter::Step step = segmenter_.push(sample);
   if (step.cycle_start) startCycle(segmenter_.impacts() - 1, index);
   if (keeping_) {

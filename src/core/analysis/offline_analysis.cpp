@@ -371,7 +371,8 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
     r.warnings.push_back({WarningCode::kChangingParameter, spread});
   }
   tell("looking for an effect that starts within the recording");
-  r.onset = findEffectOnset(grid_.grid(), r.strokes, config_, kVariationSignificance, jobs_);
+  r.onset = findEffectOnset(grid_.grid(), r.strokes, config_, kVariationSignificance, jobs_, 60,
+                            grid_.stride(), grid_.firstTime());
   if (r.onset) {
     r.warnings.push_back({WarningCode::kChangeWithinRecording,
                           r.onset->explanation + ". The whole recording's fit averages over the change: " +

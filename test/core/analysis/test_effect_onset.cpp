@@ -8,7 +8,10 @@
 #include <string>
 
 #include "die_cushion_ident/core/analysis/effect_onset.h"
+#include "die_cushion_ident/core/analysis/evenly_thinned_cycles.h"
+#include "die_cushion_ident/core/analysis/model_assessment.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
+#include "die_cushion_ident/core/simulation/press_class.h"
 #include "simulation_fixtures.h"
 
 namespace die_cushion_ident {
@@ -69,6 +72,29 @@ TEST(EffectOnset, ALeakThatStartsMidRecordingIsNamedWithItsCycle) {
     EXPECT_GT(o.found->after, 10.0 * o.found->after_std) << "a leak after";
     EXPECT_LT(o.found->p_value, 1e-3);
     EXPECT_NE(o.found->explanation.find("leakage from press cycle"), std::string::npos);
+  }
+}
+
+// On a long recording's evenly thinned grid (every 4th cycle kept, EvenlyThinnedCycles) the onset is told in
+// the recording's own cycles and time: the first kept cycle the leak acts in, 21 of 40 cycles where it
+// started in the 21st, on a fast mechanical press and the paper's.
+TEST(EffectOnset, OnEvenlySpacedCyclesTheOnsetIsToldInTheRecordingsCycles) {
+  for (const PressClass press : {PressClass::kFastMechanical, PressClass::kSlowHydraulic}) {
+    const SimulatorConfig plant = pressClassPlant(press, 1, {"leakage"});
+    const std::vector<GridSample> grid = recordWithOnset(plant, 40, 21);
+    EvenlyThinnedCycles kept(grid.size() / 2, 250);
+    for (const GridSample& g : grid) kept.push(g);
+    ASSERT_EQ(kept.stride(), 4) << pressClassName(press);
+    const auto found =
+        findEffectOnset(kept.grid(), segmentStrokes(kept.grid()), testing::configFor(plant, {}), 1e-3, 0, 60,
+                        kept.stride(), kept.firstTime());
+    ASSERT_TRUE(found) << pressClassName(press);
+    EXPECT_EQ(found->cycle, 24) << found->explanation;  // kept: 0, 4, ..., 20 without it, 24 with
+    const StrokeSegmentation whole = segmentStrokes(grid);
+    EXPECT_DOUBLE_EQ(found->time, grid[whole.cycle_start[24]].t - grid.front().t) << found->explanation;
+    const double period = grid[whole.cycle_start[30]].t - grid[whole.cycle_start[29]].t;
+    EXPECT_NEAR(found->cycle_period, period, 0.02 * period);
+    EXPECT_NE(found->explanation.find("from press cycle 24 on"), std::string::npos) << found->explanation;
   }
 }
 

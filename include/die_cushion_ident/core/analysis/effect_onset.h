@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,10 +38,13 @@ struct EffectOnset {
 /// physical range where the effect acts (another effect that starts pulls it out). Of several, one that
 /// appears or grows before one that shrinks, and of those the one whose model, fitted to the cycles from
 /// its step on, runs free closest to them. Nothing with fewer than 6 cycles. The fits on up to `jobs`
-/// threads (0: one per core).
+/// threads (0: one per core). On a grid of every `cycle_stride`-th cycle of a recording that began at
+/// `recording_start` [s] (EvenlyThinnedCycles; NaN: at the grid's first sample) the onset is told in the
+/// recording's cycles and time.
 std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
                                            const StrokeSegmentation& strokes,
                                            const IdentificationConfig& config, double significance = 1e-3,
-                                           int jobs = 1, int max_groups = 60);
+                                           int jobs = 1, int max_groups = 60, int cycle_stride = 1,
+                                           double recording_start = std::numeric_limits<double>::quiet_NaN());
 
 }  // namespace die_cushion_ident

@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <vector>
 
 #include "die_cushion_ident/core/analysis/stroke_segmenter.h"
@@ -35,6 +36,8 @@ class EvenlyThinnedCycles {
   /// 1 while every sample is kept, else every stride-th cycle is (a power of 2).
   int stride() const { return stride_; }
   std::uint64_t samplesSeen() const { return samples_seen_; }
+  /// [s] the first sample's time (NaN before one): where the recording's grid began, kept or not.
+  double firstTime() const { return first_time_; }
   /// Cycles begun (impacts) in the whole recording, and of them kept.
   int cyclesSeen() const { return segmenter_.impacts(); }
   int cyclesKept() const { return static_cast<int>(cycles_.size()); }
@@ -62,6 +65,7 @@ class EvenlyThinnedCycles {
   std::size_t stretch_begin_ = 0;  // of the stretch being appended to
   std::uint64_t samples_seen_ = 0;
   std::uint64_t last_kept_ = 0;  // index among all samples read of kept_.back()
+  double first_time_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace die_cushion_ident
