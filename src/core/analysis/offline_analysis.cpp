@@ -83,11 +83,12 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits
 
 namespace {
 // Samples kept before each kept cycle's impact where the grid is thinned: four times the filters' reach
-// and at least half a second, so that every fit's filters and free run have settled at the impact.
+// and at least half a second, so that every fit's filters and free run have settled at the impact; at most a
+// tenth of the bound (a 10 us grid's half second would not leave room for cycles).
 std::size_t leadInSamples(const IdentificationConfig& config) {
   const double half_second = std::ceil(0.5 / config.resampler.sample_period);
-  return static_cast<std::size_t>(
-      std::max(4.0 * (config.moving_average_width + config.derivative_width), half_second));
+  const double wanted = std::max(4.0 * (config.moving_average_width + config.derivative_width), half_second);
+  return static_cast<std::size_t>(std::min(wanted, std::floor(config.max_analysed_samples / 10.0)));
 }
 }  // namespace
 

@@ -10,6 +10,7 @@
 #include "die_cushion_ident/core/analysis/evenly_thinned_cycles.h"
 #include "die_cushion_ident/core/analysis/held_out_test.h"
 #include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/analysis/offline_analysis.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
 #include "simulation_fixtures.h"
 
@@ -103,6 +104,17 @@ TEST(EvenlyThinnedCycles, HoursWithoutAStrokeStayWithinTheBound) {
   EXPECT_GT(store.grid().size(), 0u);
   EXPECT_EQ(store.samplesSeen(), rest.size());
   EXPECT_EQ(store.cyclesSeen(), 0);
+}
+
+// Every bound the configuration accepts makes an analysis: the half second of lead-in on a 10 us grid is
+// 50 000 samples, more than a tenth of the lowest bound, and is cut to it.
+TEST(EvenlyThinnedCycles, EveryValidBoundMakesAnAnalysis) {
+  IdentificationConfig config;
+  config.resampler.sample_period = 1e-5;
+  config.identification_period = 1e-3;
+  config.max_analysed_samples = 1e5;
+  ASSERT_TRUE(config.validate().empty()) << config.validate().front();
+  EXPECT_NO_THROW(OfflineAnalysis analysis(config));
 }
 
 TEST(EvenlyThinnedCycles, ABoundTooSmallForItsLeadInIsRefused) {
