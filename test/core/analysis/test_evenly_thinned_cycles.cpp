@@ -93,6 +93,26 @@ INSTANTIATE_TEST_SUITE_P(Presses, EvenlyThinnedCyclesOnPresses,
                            return std::string(pressClassName(info.param));
                          });
 
+// A press stroking faster than the lead-in is long (80 strokes a minute: the previous stroke drawing until
+// 0.27 s before the impact, against half a second of lead-in): the stretch then begins mid-stroke, and the
+// restarted phase classifier must not take that drawing for an impact: the kept grid holds just the kept
+// cycles (the part of the stroke before in a lead-in is judged with its cycle).
+TEST(EvenlyThinnedCycles, APressFasterThanTheLeadInKeepsJustItsKeptCycles) {
+  SimulatorConfig plant = pressClassPlant(PressClass::kFastMechanical, 1);
+  plant.cycle.rest_time = 0.04;
+  plant.cycle.return_speed = 1.0;
+  const testing::Recording r = testing::record(plant, 60);
+  const std::size_t bound = r.grid.size() / 4;
+  const EvenlyThinnedCycles store = keep(r.grid, bound);
+  ASSERT_GE(store.stride(), 4);
+  const StrokeSegmentation own = segmentStrokes(store.grid());
+  ASSERT_EQ(static_cast<int>(own.cycle_start.size()), store.cyclesKept());
+  for (int k = 0; k < store.cyclesKept(); ++k) {
+    const std::size_t whole = r.strokes.cycle_start[static_cast<std::size_t>(k * store.stride())];
+    EXPECT_DOUBLE_EQ(store.grid()[own.cycle_start[static_cast<std::size_t>(k)]].t, r.grid[whole].t) << k;
+  }
+}
+
 TEST(EvenlyThinnedCycles, HoursWithoutAStrokeStayWithinTheBound) {
   std::vector<GridSample> rest(50000);
   for (std::size_t i = 0; i < rest.size(); ++i) {
