@@ -90,20 +90,21 @@ std::size_t leadInSamples(const IdentificationConfig& config) {
   const double wanted = std::max(4.0 * (config.moving_average_width + config.derivative_width), half_second);
   return static_cast<std::size_t>(std::min(wanted, std::floor(config.max_analysed_samples / 10.0)));
 }
-}  // namespace
 
+// The warning a thinned analysis carries, in words.
 std::string thinnedInWords(const GridThinning& thinning, double sample_period) {
   return formatted(
              "the recording is longer than max_analysed_samples (%.0f s of grid kept at %.3g ms): the fit "
              "to the whole recording, the free run, the uncertainty, the change search and the effect "
-             "ranking judged every %.0f",
-             thinning.samples_kept * sample_period, 1e3 * sample_period, thinning.stride) +
-         (thinning.stride == 2 ? "nd" : "th") +
+             "ranking judged every ",
+             thinning.samples_kept * sample_period, 1e3 * sample_period) +
+         ordinal(thinning.stride) +
          formatted(
              " press cycle, %.0f of %.0f, evenly spaced (the online estimate covers every sample); raise "
              "max_analysed_samples to judge more of them",
              thinning.cycles_kept, thinning.cycles_seen);
 }
+}  // namespace
 
 void GridCoverage::add(const GridSample& g) {
   complete += g.complete ? 1 : 0;
@@ -311,13 +312,12 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
       HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
   r.effects = model.effectNames();
   warnRejectedMessages(config_, r);
-  const GridCoverage& coverage = coverage_;
-  decideHydraulics(coverage, r);
+  decideHydraulics(coverage_, r);
   if (grid_.stride() > 1)
     r.warnings.push_back(
         {WarningCode::kCyclesThinned, thinnedInWords(r.thinning, config_.resampler.sample_period)});
   analyzeValveSweep(&r, tell);
-  if (r.hydraulics) fitTheWholeRecording(model, coverage.with_velocity > 0, coverage.highest, &r, tell);
+  if (r.hydraulics) fitTheWholeRecording(model, coverage_.with_velocity > 0, coverage_.highest, &r, tell);
   if (r.hydraulics && r.model.updates == 0) {
     // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";

@@ -39,8 +39,6 @@ struct GridThinning {
   int cycles_kept = 0;  ///< of them kept
   std::size_t samples_kept = 0;
 };
-/// The warning a thinned analysis carries, in words.
-std::string thinnedInWords(const GridThinning& thinning, double sample_period);
 
 /// Everything analyze_bag reports.
 struct OfflineResult {
