@@ -10,6 +10,8 @@ PlantCondition plantAtRest() {
   rest.pressure = 20e5;
   rest.velocity = 0.0;
   rest.pressure_age = 0.001;
+  rest.position_age = 0.001;
+  rest.valve_age = 0.001;
   rest.spool_age = 0.001;
   return rest;
 }
@@ -35,21 +37,18 @@ SimulatorConfig cushionAtRest(const ServoValveParameters& valve, std::uint64_t s
 }
 
 SweepRig::SweepRig(const SimulatorConfig& plant, const SweepLimits& limits) : plant_(plant), sweep_(limits) {
-  tick();  // first messages, so that the plant condition is known
+  // The first messages, so that the plant condition is known (the velocity: a slope over 20 ms of positions).
+  for (int i = 0; i < 30; ++i) tick();
 }
 
 PlantCondition SweepRig::condition() const {
-  PlantCondition c;
-  const double now = plant_.state().t;
-  c.pressure = pressure_override_ ? *pressure_override_ : pressure_;
-  c.pressure_age = now - pressure_stamp_;
-  c.velocity = velocity_;
-  c.spool_age = now - spool_stamp_;
+  PlantCondition c = signals_.at(Instant::simulated(plant_.state().t));
+  if (pressure_override_) c.pressure = *pressure_override_;
   return c;
 }
 
 std::string SweepRig::start(const SweepRequest& request) {
-  return sweep_.start(request, plant_.state().t, condition());
+  return sweep_.start(request, Instant::simulated(plant_.state().t), condition());
 }
 
 std::optional<double> SweepRig::tick() {
@@ -61,25 +60,25 @@ std::optional<double> SweepRig::tick() {
   messages_.clear();
   plant_.step(&messages_);
   for (const auto& m : messages_) {
+    const Instant arrival = Instant::simulated(m.sample.stamp);
     switch (m.stream) {
       case InputStream::kPressure:
-        pressure_ = m.sample.first;
-        pressure_stamp_ = m.sample.stamp;
+        signals_.pressure(m.sample.stamp, m.sample.first, arrival);
         break;
       case InputStream::kPosition:
-        velocity_ = m.sample.second;
+        signals_.position(m.sample.stamp, m.sample.first, arrival);
         break;
       case InputStream::kValve: {
         if (drop_valve_) break;
         const double spool = spool_override_ ? *spool_override_ : m.sample.second;
         valve_record_.push_back({m.sample.stamp, m.sample.first, spool});
-        if (std::isfinite(spool)) spool_stamp_ = m.sample.stamp;
+        signals_.valve(m.sample.stamp, spool, arrival);
         sweep_.addValveSample(m.sample.stamp, m.sample.first, spool);
         break;
       }
     }
   }
-  sweep_.supervise(plant_.state().t, condition());
+  sweep_.supervise(Instant::simulated(plant_.state().t), condition());
   return command;
 }
 

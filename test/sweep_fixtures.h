@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
+#include "die_cushion_ident/core/valve/plant_signals.h"
 #include "die_cushion_ident/core/valve/recorded_sweep.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 
@@ -15,8 +16,8 @@ namespace testing {
 /// gain 0.05-0.2 1/V.
 ServoValveParameters randomValve(std::uint64_t seed);
 
-/// The plant as the valve experiments' interlocks see a cushion at rest: 20 bar, not moving, pressure and
-/// spool 1 ms old.
+/// The plant as the valve experiments' interlocks see a cushion at rest: 20 bar, not moving, every input
+/// arrived 1 ms ago, the stamps on the clock.
 PlantCondition plantAtRest();
 
 /// A cushion that stays at rest (the sweep's safe state) with the given valve and spool noise 0.002.
@@ -36,6 +37,7 @@ class SweepRig {
 
   DieCushionSimulator& plant() { return plant_; }
   ValveSweep& sweep() { return sweep_; }
+  /// The plant as the interlocks see it now: the messages arrive as they are stamped.
   PlantCondition condition() const;
   /// Every command the sweep produced, and every valve message (for the offline analysis).
   const std::vector<double>& commands() const { return commands_; }
@@ -50,9 +52,7 @@ class SweepRig {
   DieCushionSimulator plant_;
   ValveSweep sweep_;
   std::vector<SimulatedMeasurement> messages_;
-  double pressure_ = 0.0, pressure_stamp_ = -1e9;
-  double velocity_ = 0.0;
-  double spool_stamp_ = -1e9;
+  PlantSignals signals_;
   std::optional<double> spool_override_, pressure_override_;
   bool drop_valve_ = false;
   std::vector<double> commands_;

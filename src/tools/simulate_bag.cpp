@@ -11,11 +11,11 @@
 #include "argument_parser.h"
 #include "bag_stream_writer.h"
 #include "command_line.h"
-#include "message_conversions.h"
 #include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
+#include "die_cushion_ident/core/valve/plant_signals.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
-#include "die_cushion_ident/core/signal/velocity_from_position.h"
+#include "message_conversions.h"
 
 using namespace die_cushion_ident;
 
@@ -24,8 +24,10 @@ namespace {
 const char* kUsage =
     "usage: simulate_bag OUT.bag [--cycles N] [--hours H] [--plant-effects a,b] [--custom-effect NAME=EXPR]\n"
     "                    [--set NAME=VALUE]... [--seed S] [--sweep] [--step-test VOLTAGE] [--epoch SECONDS]\n"
-    "                    [--press CLASS] [--variation N] [--write-config FILE.yaml] [--write-truth FILE.yaml]\n"
-    "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name N]\n"
+    "                    [--press CLASS] [--variation N] [--write-config FILE.yaml] [--write-truth "
+    "FILE.yaml]\n"
+    "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name "
+    "N]\n"
     "                    [--rates P,X,V] [--stamp-offsets P,X,V] [--continuous-command] [--start-offset S]\n"
     "                    [--effects-from-cycle K]\n"
     "  Press cycles of the simulated die cushion on /die_cushion/{pressure,position,valve};\n"
@@ -36,20 +38,23 @@ const char* kUsage =
     "                         analyze_bag --config; --write-truth FILE its true parameters (YAML);\n"
     "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest;\n"
     "  --step-test V then a valve command step of V volts at rest (held 1.5 s), for the pressure's t63.\n"
-    "  --effects-from-cycle K the plant effects act only from press cycle K on (0: the first; before it their\n"
+    "  --effects-from-cycle K the plant effects act only from press cycle K on (0: the first; before it "
+    "their\n"
     "                         parameters are 0): a leak or air that starts while the press is recorded;\n"
     "                         --write-truth then adds effects_from_cycle and effects_from_time [s].\n"
     "  Sensor configurations a press may have:\n"
     "    --no-velocity         JointState with position only (a linear encoder)\n"
     "    --no-spool            spool position not measured (NaN)\n"
     "    --joints a,b,c        the position topic carries several joints (a cell's joint_states); the\n"
-    "                          cushion is the one named by --joint-name (default 'cushion'), the others move\n"
+    "                          cushion is the one named by --joint-name (default 'cushion'), the others "
+    "move\n"
     "                          with it (ram above it, blank holder at a tenth of its stroke)\n"
     "    --rates P,X,V         message rates [Hz] of pressure, position and valve (default 1000,1000,1000;\n"
     "                          the valve rate is at most the 1 kHz command rate)\n"
     "    --stamp-offsets P,X,V added to each topic's stamps [s] (a topic stamped late by another clock)\n"
     "    --continuous-command  the sweep's command comes from a continuous signal generator, sampled by the\n"
-    "                          valve messages (not held by an amplifier): analyse with valve_command_hold: 0\n"
+    "                          valve messages (not held by an amplifier): analyse with valve_command_hold: "
+    "0\n"
     "    --start-offset S      the recording starts S seconds into the press cycle (mid-stroke)\n";
 
 // The three topics' names in the order of InputStream.
@@ -99,11 +104,13 @@ class BagRecorder {
 // "a,b,c" -> three numbers.
 void threeNumbers(const std::string& text, double out[kInputStreamCount]) {
   const auto items = splitList(text);
-  if (items.size() != kInputStreamCount) throw std::invalid_argument("'" + text + "' must be three numbers P,X,V");
+  if (items.size() != kInputStreamCount)
+    throw std::invalid_argument("'" + text + "' must be three numbers P,X,V");
   for (int s = 0; s < kInputStreamCount; ++s) {
     std::size_t used = 0;
     out[s] = std::stod(items[s], &used);
-    if (used != items[s].size() || !std::isfinite(out[s])) throw std::invalid_argument("'" + items[s] + "' is not a number");
+    if (used != items[s].size() || !std::isfinite(out[s]))
+      throw std::invalid_argument("'" + items[s] + "' is not a number");
   }
 }
 
@@ -141,15 +148,16 @@ void addPressOptions(ArgumentParser& arguments, Options& o) {
       .option("--write-truth", [&o](const std::string& v) { o.truth_out = v; })
       .option("--plant-effects", [&o](const std::string& v) { o.plant.effects = splitList(v); })
       .option("--custom-effect", [&o](const std::string& v) { o.plant.custom_effects.push_back(v); })
-      .option("--set",
-              [&o](const std::string& kv) {
-                const auto eq = kv.find('=');
-                const auto value = eq == std::string::npos ? std::nullopt : numberIn(kv.substr(eq + 1), -1e300, 1e300);
-                if (!value)
-                  throw std::invalid_argument("--set needs NAME=VALUE with a finite number, got '" + kv +
-                                              "'");
-                o.plant.parameters[kv.substr(0, eq)] = *value;
-              })
+      .option(
+          "--set",
+          [&o](const std::string& kv) {
+            const auto eq = kv.find('=');
+            const auto value =
+                eq == std::string::npos ? std::nullopt : numberIn(kv.substr(eq + 1), -1e300, 1e300);
+            if (!value)
+              throw std::invalid_argument("--set needs NAME=VALUE with a finite number, got '" + kv + "'");
+            o.plant.parameters[kv.substr(0, eq)] = *value;
+          })
       .option("--seed",
               [&o](const std::string& v) {
                 const auto seed = wholeNumberIn(v, 0, std::numeric_limits<long>::max());
@@ -161,7 +169,8 @@ void addPressOptions(ArgumentParser& arguments, Options& o) {
               [&o](const std::string& v) {
                 const auto step = numberIn(v, -10.0, 10.0);
                 if (!step || *step == 0.0) {
-                  throw std::invalid_argument("--step-test needs a voltage step in [-10, 10] V, not 0, got '" + v + "'");
+                  throw std::invalid_argument(
+                      "--step-test needs a voltage step in [-10, 10] V, not 0, got '" + v + "'");
                 }
                 o.step_test = *step;
               })
@@ -278,22 +287,19 @@ double recordPressCycles(const Options& o, const SimulatorConfig& plant, BagReco
   return press.state().t - o.start_offset + 2.0;
 }
 
-// What a live sweep's safety check sees of the cushion, from its messages.
+// What a live sweep's safety check sees of the cushion, from its messages (arriving as they are stamped).
 struct SweepWatch {
-  PlantCondition condition;
-  double spool_stamp = -1e9, pressure_stamp = -1e9;
-  CausalVelocity position_rate;
+  PlantSignals signals;
 
   void see(const SimulatedMeasurement& m, ValveSweep& valve_sweep) {
+    const Instant arrival = Instant::simulated(m.sample.stamp);
     if (m.stream == InputStream::kPressure) {
-      condition.pressure = m.sample.first;
-      pressure_stamp = m.sample.stamp;
+      signals.pressure(m.sample.stamp, m.sample.first, arrival);
     } else if (m.stream == InputStream::kPosition) {
       // Without a velocity channel the safety check uses the node's causal slope of the positions.
-      position_rate.push(m.sample.stamp, m.sample.first);
-      condition.velocity = std::isfinite(m.sample.second) ? m.sample.second : position_rate.velocity();
+      signals.position(m.sample.stamp, m.sample.first, arrival);
     } else {
-      if (std::isfinite(m.sample.second)) spool_stamp = m.sample.stamp;
+      signals.valve(m.sample.stamp, m.sample.second, arrival);
       valve_sweep.addValveSample(m.sample.stamp, m.sample.first, m.sample.second);
     }
   }
@@ -313,14 +319,13 @@ double recordSweep(const Options& o, const SimulatorConfig& plant, double offset
   std::vector<SimulatedMeasurement> messages;
   while (cushion.state().t < 600.0) {
     const double now = cushion.state().t;
-    watch.condition.pressure_age = now - watch.pressure_stamp;
-    watch.condition.spool_age = now - watch.spool_stamp;
+    const PlantCondition condition = watch.signals.at(Instant::simulated(now));
     if (!started && now > 0.2) {
-      const std::string refusal = valve_sweep.start(request, now, watch.condition);
+      const std::string refusal = valve_sweep.start(request, Instant::simulated(now), condition);
       if (!refusal.empty()) throw std::runtime_error("sweep refused: " + refusal);
       started = true;
     }
-    valve_sweep.supervise(now, watch.condition);
+    valve_sweep.supervise(Instant::simulated(now), condition);
     const auto u = valve_sweep.command(now);
     if (o.continuous_command && started) {
       cushion.setValveCommandSignal([&valve_sweep](double t) { return valve_sweep.commandAt(t); });

@@ -1,13 +1,17 @@
 #include "core_fuzz.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <vector>
 
-#include "die_cushion_ident/core/model/effect_library.h"
-#include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/control/valve_supervisor.h"
+#include "die_cushion_ident/core/estimation/identification_pipeline.h"
+#include "die_cushion_ident/core/model/effect_library.h"
 #include "die_cushion_ident/core/valve/recorded_sweep.h"
 #include "die_cushion_ident/core/valve/servo_valve_fit.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
@@ -225,9 +229,10 @@ void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fai
   plant.pressure = in.number(0.0, 100e5);
   plant.velocity = in.number(-0.01, 0.01);
   plant.pressure_age = in.number(0.0, 0.1);
-  plant.spool_age = in.number(0.0, 0.1);
+  plant.position_age = in.number(0.0, 0.1);
+  plant.valve_age = plant.spool_age = in.number(0.0, 0.1);
   double now = 10.0;
-  const std::string refusal = sweep->start(request, now, plant);
+  const std::string refusal = sweep->start(request, Instant::simulated(now), plant);
   if (!refusal.empty() && sweep->running()) fail("refused but running");
   std::vector<ValveSample> echo;
   for (int i = 0; i < 3000 && !in.empty(); ++i) {
@@ -235,7 +240,7 @@ void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fai
     now += (op & 1) ? in.number(0.0, 0.01) : limits.command_period;
     if (op & 2) plant.pressure = in.number(0.0, 150e5);
     if (op & 4) plant.spool_age = in.number(0.0, 0.2);
-    sweep->supervise(now, plant);
+    sweep->supervise(Instant::simulated(now), plant);
     const auto u = sweep->command(now);
     if (u && !(std::isfinite(*u) && *u >= limits.min_voltage && *u <= limits.max_voltage)) {
       fail("a valve command outside the configured bounds: " + std::to_string(*u));
@@ -253,6 +258,90 @@ void sweepAndValve(Bytes& in, const std::function<void(const std::string&)>& fai
   fitHostilePoints(in, fail);
 }
 
+/// Everything that drives the valve, on hostile clocks and inputs (issue 45): the steady clock only ever
+/// advances (it is monotonic), everything else may be anything. Invariants: every command within the
+/// voltage limits and finite; the feed-forward never steps beyond its slew rate on the steady clock; no
+/// experiment's command while the feed-forward is not at 0 V; every refusal and abort with a reason.
+void supervisor(Bytes& in, const std::function<void(const std::string&)>& fail) {
+  const SweepLimits limits = hostileLimits(in);
+  FeedForwardOutputLimits ff;
+  ff.max_voltage = std::max(1e-3, std::min(std::abs(limits.min_voltage), std::abs(limits.max_voltage)));
+  if (!std::isfinite(ff.max_voltage)) ff.max_voltage = 1.0;
+  ff.slew_rate = 1.0 + 100.0 * (in.byte() / 255.0);
+  std::unique_ptr<ValveSupervisor> valve;
+  try {
+    valve = std::make_unique<ValveSupervisor>(limits, ff);
+  } catch (const std::invalid_argument& e) {
+    if (limits.validate().empty()) fail(std::string("valid limits refused: ") + e.what());
+    return;
+  }
+  double steady = 10.0, clock = in.number(0.0, 1e9), last_ff = 0.0, last_ff_time = NAN;
+  const auto check = [&](std::optional<double> u, bool feed_forward) {
+    if (!u) return;
+    if (!std::isfinite(*u)) fail("a non-finite command");
+    if (feed_forward) {
+      if (std::abs(*u) > ff.max_voltage + 1e-12) fail("a feed-forward beyond its limit");
+      const double dt = std::isnan(last_ff_time) ? 0.0 : steady - last_ff_time;
+      if (std::abs(*u - last_ff) > ff.slew_rate * std::min(dt, ff.max_step_interval) + 1e-9)
+        fail("a feed-forward step beyond its slew rate");
+      last_ff = *u;
+      last_ff_time = steady;
+    } else {
+      if (*u < limits.min_voltage - 1e-12 || *u > limits.max_voltage + 1e-12)
+        fail("a valve command outside its limits");
+      if (last_ff != 0.0) fail("an experiment's command while the feed-forward adds a voltage");
+    }
+  };
+  for (int i = 0; i < 2000 && !in.empty(); ++i) {
+    const std::uint8_t op = in.byte();
+    steady += (op & 1) ? std::max(0.0, std::min(in.number(0.0, 0.05), 10.0)) : 0.0005;
+    clock = (op & 2) ? in.number(0.0, 1e9) : clock + 0.0005;
+    const Instant now{steady, clock};
+    const double stamp = (op & 4) ? in.number(0.0, 1e9) : clock;
+    switch ((op >> 3) % 8) {
+      case 0:
+        valve->pressure(stamp, in.number(0.0, 100e5), now);
+        break;
+      case 1:
+        valve->position(stamp, in.number(0.0, 0.3), now);
+        break;
+      case 2:
+        valve->valve(stamp, in.number(-1.0, 1.0), in.number(-1.0, 1.0), now);
+        break;
+      case 3: {
+        const std::string why = valve->startSweep(hostileRequest(in), now);
+        if (!why.empty() && valve->experiments().lastRefusal().empty()) fail("a refusal not kept");
+        break;
+      }
+      case 4: {
+        StepTestRequest r;
+        r.offset = in.number(-1.0, 1.0);
+        r.step = in.number(-1.0, 1.0);
+        r.duration = in.number(0.0, 2.0);
+        r.settle = in.number(0.0, 1.0);
+        valve->startStepTest(r, now);
+        break;
+      }
+      case 5:
+        valve->abortExperiment("fuzz", now);
+        break;
+      case 6:
+        valve->enableFeedForward(in.byte() & 1, now);
+        break;
+      default:
+        check(valve->feedForward(in.number(-20.0, 20.0), "fuzz", now), true);
+        break;
+    }
+    check(valve->experimentCommand(now), false);
+    const auto out = valve->watch(now);
+    check(out.valve_command, false);
+    check(out.feed_forward, true);
+    if (valve->experiments().lastEnd().find("aborted: ") != std::string::npos &&
+        valve->experiments().lastEnd().size() <= std::string("valve sweep aborted: ").size())
+      fail("an abort without a reason");
+  }
+}
+
 }  // namespace
 
 void runCase(const std::uint8_t* data, std::size_t size,
@@ -263,6 +352,7 @@ void runCase(const std::uint8_t* data, std::size_t size,
   if (sweep_first) sweepAndValve(in, fail);
   feedMessages(in, config, fail);
   if (!sweep_first) sweepAndValve(in, fail);
+  supervisor(in, fail);
 }
 
 }  // namespace fuzz

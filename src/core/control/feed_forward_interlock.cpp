@@ -8,54 +8,132 @@
 
 namespace die_cushion_ident {
 
-FeedForwardInterlock::FeedForwardInterlock(const FeedForwardInterlockLimits& limits, double reference_valve_gain)
-    : limits_(limits), reference_gain_(reference_valve_gain) {
+FeedForwardInterlock::FeedForwardInterlock(const FeedForwardInterlockLimits& limits,
+                                           double configured_valve_gain)
+    : limits_(limits), configured_gain_(configured_valve_gain) {
   const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
-  if (!positive(limits.max_voltage) || !positive(limits.slew_rate) || !positive(limits.parameter_rate) ||
-      !(limits.valve_gain_band >= 1.0 && std::isfinite(limits.valve_gain_band)) ||
-      !(limits.hysteresis >= 0.0 && std::isfinite(limits.hysteresis))) {
-    throw std::invalid_argument("feed-forward interlock: voltage limit, slew rate and parameter rate must be > 0, "
-                                "the valve gain band >= 1 and the hysteresis >= 0");
+  if (!positive(limits.parameter_rate) || !positive(limits.max_lead) ||
+      !(limits.valve_gain_band >= 1.0 && std::isfinite(limits.valve_gain_band))) {
+    throw std::invalid_argument(
+        "feed-forward interlock: parameter rate and longest lead must be > 0, the valve gain band >= 1");
   }
-  if (!(std::isfinite(reference_gain_) && reference_gain_ != 0.0)) reference_gain_ = NAN;
+  if (!(std::isfinite(configured_gain_) && configured_gain_ != 0.0)) configured_gain_ = NAN;
 }
 
-std::string FeedForwardInterlock::check(const ParameterVector& physical, double valve_gain) const {
-  constexpr int kSigned = 3;  // bulk modulus, valve flow gain, dead volume: model order
-  if (physical.size() < kSigned || !physical.allFinite()) return "an identified parameter is not finite";
-  static const char* kNames[kSigned] = {"bulk modulus", "valve flow gain", "dead volume"};
-  for (int i = 0; i < kSigned; ++i) {
-    if (!(physical(i) > 0.0)) {
-      return std::string("the ") + kNames[i] + formatted(" is %.3g: not positive, the inverse would turn the "
-                                                           "pressure's error the wrong way", physical(i));
+std::string FeedForwardInterlock::checkParameters(const HydraulicModel& model,
+                                                  const ParameterVector& physical,
+                                                  const ParameterVector& stds,
+                                                  ParameterVector* usable) const {
+  if (physical.size() != model.parameterCount() || stds.size() != physical.size()) {
+    return "the parameters do not fit the model";
+  }
+  if (!physical.allFinite()) return "an identified parameter is not finite";
+  constexpr double kStds = 3.0;  // beyond its range by more than this many stds: not the estimator's noise
+  const auto& infos = model.parameterInfos();
+  ParameterVector inside = physical;
+  for (int i = 0; i < model.parameterCount(); ++i) {
+    const ParameterInfo& info = infos[i];
+    // Bulk modulus, flow gain and dead volume strictly positive: at zero the inverse loses its sign.
+    if (i < HydraulicModel::kFirstEffect && !(physical(i) > 0.0)) {
+      return info.name + formatted(" = %.3g ", physical(i)) + info.unit +
+             " is not positive: the inverse would turn the pressure's error the wrong way";
+    }
+    const double slack = std::isfinite(stds(i)) ? kStds * std::abs(stds(i)) : 0.0;
+    if (physical(i) < info.lower_bound - slack || physical(i) > info.upper_bound + slack) {
+      return info.name + formatted(" = %.3g ", physical(i)) + info.unit + formatted(" (std %.2g)", stds(i)) +
+             " lies outside its physical range [" + formatted("%.3g, ", info.lower_bound) +
+             formatted("%.3g] ", info.upper_bound) + info.unit + " by more than 3 stds";
+    }
+    inside(i) = std::clamp(physical(i), info.lower_bound, info.upper_bound);
+  }
+  if (usable) *usable = inside;
+  return "";
+}
+
+namespace {
+double referenceGain(double configured, const std::optional<ServoValveParameters>& swept) {
+  return std::isfinite(configured) ? configured : swept ? swept->gain : NAN;
+}
+}  // namespace
+
+std::string FeedForwardInterlock::checkValve(const ServoValveParameters& valve, bool from_sweep) const {
+  if (!(std::isfinite(valve.gain) && valve.gain != 0.0)) return "the valve gain is not finite and non-zero";
+  const double reference = referenceGain(configured_gain_, swept_);
+  if (std::isfinite(reference)) {
+    if ((valve.gain > 0.0) != (reference > 0.0)) {
+      return formatted("the valve gain %.3g 1/V has the opposite sign of the reference %.3g 1/V", valve.gain,
+                       reference);
+    }
+    const double ratio = valve.gain / reference;
+    if (ratio > limits_.valve_gain_band || ratio < 1.0 / limits_.valve_gain_band) {
+      return formatted("the valve gain %.3g 1/V is more than %.3g times off the reference %.3g 1/V",
+                       valve.gain, limits_.valve_gain_band, reference);
     }
   }
-  if (!(std::isfinite(valve_gain) && valve_gain != 0.0)) return "the valve gain is not finite and non-zero";
-  if (std::isfinite(reference_gain_)) {
-    if ((valve_gain > 0.0) != (reference_gain_ > 0.0)) {
-      return formatted("the valve gain %.3g 1/V has the opposite sign of the reference %.3g 1/V", valve_gain,
-                       reference_gain_);
-    }
-    const double ratio = valve_gain / reference_gain_;
-    if (ratio > limits_.valve_gain_band || ratio < 1.0 / limits_.valve_gain_band) {
-      return formatted("the valve gain %.3g 1/V is more than %.3g times off the reference %.3g 1/V", valve_gain,
-                       limits_.valve_gain_band, reference_gain_);
-    }
+  if (!from_sweep) return "";
+  using S = ValveSanity;
+  if (!(valve.natural_frequency >= S::kMinNaturalFrequency &&
+        valve.natural_frequency <= S::kMaxNaturalFrequency)) {
+    return formatted("the valve's natural frequency %.3g Hz lies outside [%g, ", valve.natural_frequency,
+                     S::kMinNaturalFrequency) +
+           formatted("%g] Hz", S::kMaxNaturalFrequency);
+  }
+  if (!(valve.damping >= S::kMinDamping && valve.damping <= S::kMaxDamping)) {
+    return formatted("the valve's damping %.3g lies outside [%g, ", valve.damping, S::kMinDamping) +
+           formatted("%g]", S::kMaxDamping);
+  }
+  if (!(valve.dead_time >= 0.0 && valve.dead_time <= S::kMaxDeadTime)) {
+    return formatted("the valve's dead time %.3g s lies outside [0, %g] s", valve.dead_time, S::kMaxDeadTime);
+  }
+  if (!(valve.lowFrequencyDelay() <= limits_.max_lead)) {
+    return formatted("the valve's lag (dead time + 2 D / w0) %.1f ms is longer than the lead allowed, ",
+                     valve.lowFrequencyDelay() * 1e3) +
+           formatted("%.1f ms (feed_forward_max_lead)", limits_.max_lead * 1e3);
   }
   return "";
 }
 
-void FeedForwardInterlock::acceptValveGain(double valve_gain) {
-  if (!std::isfinite(reference_gain_) && std::isfinite(valve_gain) && valve_gain != 0.0) reference_gain_ = valve_gain;
+bool FeedForwardInterlock::offerSweptValve(const ServoValveParameters& valve, std::string* refusal) {
+  const std::string why = checkValve(valve, true);
+  if (refusal) *refusal = why;
+  if (!why.empty()) return false;
+  swept_ = valve;
+  return true;
 }
 
-const ParameterVector& FeedForwardInterlock::follow(const ParameterVector& identified, double dt) {
-  if (!following_ || parameters_.size() != identified.size()) {
+std::optional<ServoValveParameters> FeedForwardInterlock::valve() const {
+  if (swept_) return swept_;
+  if (!std::isfinite(configured_gain_)) return std::nullopt;
+  ServoValveParameters configured;
+  configured.gain = configured_gain_;
+  configured.dead_time = 0.0;  // no lag known: no lead
+  configured.natural_frequency = std::numeric_limits<double>::infinity();
+  return configured;
+}
+
+const ParameterVector& FeedForwardInterlock::follow(const HydraulicModel& model,
+                                                    const ParameterVector& identified, double dt) {
+  if (identified.size() != model.parameterCount()) {
+    throw std::invalid_argument("feed-forward interlock: the parameters do not fit the model");
+  }
+  std::vector<std::string> names;
+  for (const auto& info : model.parameterInfos()) names.push_back(info.name);
+  if (names_.empty()) {
     parameters_ = identified;
-    following_ = true;
+    names_ = names;
     return parameters_;
   }
-  const double step = limits_.parameter_rate * std::clamp(dt, 0.0, 1.0);
+  if (names != names_) {
+    // A new model: what both share continues, a new effect starts absent (0 is every effect's neutral value).
+    ParameterVector mapped = ParameterVector::Zero(static_cast<Eigen::Index>(names.size()));
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      const auto old = std::find(names_.begin(), names_.end(), names[i]);
+      if (old != names_.end()) mapped(static_cast<Eigen::Index>(i)) = parameters_(old - names_.begin());
+    }
+    parameters_ = mapped;
+    names_ = names;
+  }
+  const double step = limits_.parameter_rate * std::clamp(std::isfinite(dt) ? dt : 0.0, 0.0, 0.1);
   for (Eigen::Index i = 0; i < identified.size(); ++i) {
     // A parameter near zero (an effect's) moves by its target's magnitude as well, so it can leave zero.
     const double scale = std::max(std::abs(parameters_(i)), std::abs(identified(i)));
@@ -63,20 +141,6 @@ const ParameterVector& FeedForwardInterlock::follow(const ParameterVector& ident
     parameters_(i) += change;
   }
   return parameters_;
-}
-
-double FeedForwardInterlock::output(double wanted, double dt) {
-  double target = 0.0;
-  if (std::isfinite(wanted)) {
-    // Hysteresis on the wanted command: small changes are held, so the overlap's two edges do not chatter.
-    if (std::abs(wanted - held_wanted_) > limits_.hysteresis || wanted == 0.0) held_wanted_ = wanted;
-    target = std::clamp(held_wanted_, -limits_.max_voltage, limits_.max_voltage);
-  } else {
-    held_wanted_ = 0.0;
-  }
-  const double step = limits_.slew_rate * std::clamp(std::isfinite(dt) ? dt : 0.0, 0.0, 1.0);
-  output_ = std::clamp(output_ + std::clamp(target - output_, -step, step), -limits_.max_voltage, limits_.max_voltage);
-  return output_;
 }
 
 }  // namespace die_cushion_ident

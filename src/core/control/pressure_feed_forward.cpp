@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "die_cushion_ident/core/util/formatted.h"
+
 namespace die_cushion_ident {
 
 PressureFeedForward::PressureFeedForward(const HydraulicModel& model, const ParameterVector& physical,
@@ -27,58 +29,159 @@ void PressureFeedForward::setParameters(const ParameterVector& physical) {
   physical_ = physical;
 }
 
-double PressureFeedForward::spoolOpening(double p_ref, double dp_ref, double x, double v) const {
-  HydraulicSignals s;
-  s.p = p_ref;
-  s.x = x;
-  s.v = v;
-  s.dp = dp_ref;
-  s.V = model_.chamberVolume(x, physical_(HydraulicModel::kDeadVolume));
-  const double wanted = model_.geometry().piston_area * v - model_.extraOutflow(s, physical_) -
-                        model_.capacitance(s, physical_) * dp_ref;
+double PressureFeedForward::invert(double wanted, HydraulicSignals& s) const {
   const auto flow = [&](double y) {
     s.y = y;
     return model_.valveFlow(s, physical_);
   };
-  double lo = -1.0, hi = 1.0;
-  if (wanted <= flow(lo)) return lo;
-  if (wanted >= flow(hi)) return hi;
-  for (int i = 0; i < 50; ++i) {  // the valve flow rises with the opening: bisection to 1e-15
-    const double mid = 0.5 * (lo + hi);
-    (flow(mid) < wanted ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  const auto exact = [&](double q) {
+    double lo = -1.0, hi = 1.0;
+    if (q <= flow(lo)) return lo;
+    if (q >= flow(hi)) return hi;
+    for (int i = 0; i < 50; ++i) {  // the valve flow rises with the opening: bisection to 1e-15
+      const double mid = 0.5 * (lo + hi);
+      (flow(mid) < q ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+  };
+  // The dead band around y = 0: where the first opening in each direction passes flow of that direction.
+  const auto edge = [&](double direction) {
+    if (!(direction * flow(direction) > 0.0)) return direction;  // no flow that way at all
+    double closed = 0.0, open = 1.0;
+    for (int i = 0; i < 50; ++i) {
+      const double mid = 0.5 * (closed + open);
+      (direction * flow(direction * mid) > 0.0 ? open : closed) = mid;
+    }
+    return direction * open;
+  };
+  const double y_plus = edge(1.0), y_minus = edge(-1.0);
+  const double width = 0.5 * (y_plus - y_minus);
+  if (!(width > 1e-9)) return exact(wanted);
+  const double y_hi = std::min(y_plus + width, 1.0), y_lo = std::max(y_minus - width, -1.0);
+  const double q_hi = flow(y_hi), q_lo = flow(y_lo);
+  if (!(q_hi > 0.0) || !(q_lo < 0.0) || wanted >= q_hi || wanted <= q_lo) return exact(wanted);
+  // Linear on each side of zero flow, which stays at the band's middle (a centred spool passes nothing).
+  const double y_zero = 0.5 * (y_plus + y_minus);
+  return wanted >= 0.0 ? y_zero + (y_hi - y_zero) * wanted / q_hi : y_zero + (y_lo - y_zero) * wanted / q_lo;
 }
 
-double PressureFeedForward::command(double p_ref, double dp_ref, double x, double v, bool* valid) const {
-  const bool finite = std::isfinite(p_ref) && std::isfinite(dp_ref) && std::isfinite(x) && std::isfinite(v);
-  if (valid) *valid = finite;
-  if (!finite) return 0.0;
-  const double y = spoolOpening(p_ref, dp_ref, x, v);
+double PressureFeedForward::spoolOpening(double p_ref, double dp_ref, double x, double v,
+                                         std::string* refusal) const {
+  const auto refuse = [&](const std::string& why) {
+    if (refusal) *refusal = why;
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  if (!(std::isfinite(p_ref) && std::isfinite(dp_ref) && std::isfinite(x) && std::isfinite(v))) {
+    return refuse("the set-point, its rate or the cushion's position or velocity is not finite");
+  }
+  HydraulicSignals s;
+  s.p = p_ref;
+  s.x = std::clamp(x, 0.0, model_.geometry().stroke_length);  // a preview beyond the stroke is not a chamber
+  s.v = v;
+  s.dp = dp_ref;
+  s.V = model_.chamberVolume(s.x, physical_(HydraulicModel::kDeadVolume));
+  // The compliance the set-point's rate meets: the capacitance plus what every outflow term in dp/dt adds
+  // (a custom p*dp term is a compressibility). Not positive, the dp_ref term would turn round.
+  const double h = std::max(1e5, 1e-3 * std::abs(dp_ref));
+  HydraulicSignals above = s, below = s;
+  above.dp = dp_ref + h;
+  below.dp = dp_ref - h;
+  const double compliance =
+      model_.capacitance(s, physical_) +
+      (model_.extraOutflow(above, physical_) - model_.extraOutflow(below, physical_)) / (2.0 * h);
+  if (!(compliance > 0.0) || !std::isfinite(compliance)) {
+    return refuse(formatted("the chamber's compliance at %.1f bar", p_ref * 1e-5) +
+                  formatted(" and x = %.3f m is ", s.x) + formatted("%.3g m^3/Pa", compliance) +
+                  ", not positive: the set-point's rate would act the wrong way");
+  }
+  const double wanted = model_.geometry().piston_area * v - model_.extraOutflow(s, physical_) -
+                        model_.capacitance(s, physical_) * dp_ref;
+  if (!std::isfinite(wanted)) return refuse("the model's flows are not finite at the set-point");
+  return invert(wanted, s);
+}
+
+double PressureFeedForward::command(double p_ref, double dp_ref, double x, double v,
+                                    std::string* refusal) const {
+  const double y = spoolOpening(p_ref, dp_ref, x, v, refusal);
+  if (!std::isfinite(y)) return y;
   return std::clamp(y / valve_gain_, -max_voltage_, max_voltage_);
 }
 
-PressureReference::Push PressureReference::push(double stamp, double pressure) {
+namespace {
+constexpr std::size_t kKept = 256;    // set-points kept for the rate's window
+constexpr double kRestartJump = 1.0;  // [s] a stamp this far behind the newest: the stream started again
+}  // namespace
+
+PressureReference::Push PressureReference::push(double stamp, double pressure, double arrival_steady) {
   if (!std::isfinite(stamp) || !std::isfinite(pressure)) {
     ++rejected_;
     return Push::kNonFinite;
   }
-  if (count_ > 0 && !(stamp > t1_)) {
+  Push result = Push::kAccepted;
+  if (!samples_.empty() && stamp < samples_.back().first - kRestartJump) {
+    samples_.clear();
+    result = Push::kRestarted;
+  } else if (!samples_.empty() && !(stamp > samples_.back().first)) {
     ++rejected_;
     return Push::kNotAdvancing;
   }
-  t0_ = t1_;
-  p0_ = p1_;
-  t1_ = stamp;
-  p1_ = pressure;
+  samples_.emplace_back(stamp, pressure);
+  if (samples_.size() > kKept) samples_.pop_front();
+  arrival_ = arrival_steady;
   ++count_;
-  return Push::kAccepted;
+  return result;
 }
 
-std::optional<std::pair<double, double>> PressureReference::at(double now, double ahead, double max_age) const {
-  if (count_ == 0 || !(now - t1_ <= max_age)) return std::nullopt;
-  const double rate = count_ >= 2 ? (p1_ - p0_) / (t1_ - t0_) : 0.0;
-  return std::make_pair(p1_ + rate * (now + ahead - t1_), rate);
+double PressureReference::rate() const {
+  // The set-points of the window, and older ones until they span half of it (a slow stream).
+  const double newest = samples_.back().first;
+  std::size_t first = samples_.size() - 1;
+  while (first > 0 && (samples_[first - 1].first >= newest - limits_.rate_window ||
+                       newest - samples_[first].first < 0.5 * limits_.rate_window)) {
+    --first;
+  }
+  const double span = newest - samples_[first].first;
+  if (!(span >= 0.1 * limits_.rate_window)) return 0.0;  // too short to tell a rate from the noise
+  double mean_t = 0.0, mean_p = 0.0;
+  const double n = static_cast<double>(samples_.size() - first);
+  for (std::size_t i = first; i < samples_.size(); ++i) {
+    mean_t += (samples_[i].first - newest) / n;
+    mean_p += samples_[i].second / n;
+  }
+  double stt = 0.0, stp = 0.0;
+  for (std::size_t i = first; i < samples_.size(); ++i) {
+    const double dt = samples_[i].first - newest - mean_t;
+    stt += dt * dt;
+    stp += dt * (samples_[i].second - mean_p);
+  }
+  return std::clamp(stp / stt, -limits_.max_rate, limits_.max_rate);
+}
+
+std::optional<std::pair<double, double>> PressureReference::at(Instant now, double ahead,
+                                                               std::string* why) const {
+  const auto stale = [&](const std::string& reason) {
+    if (why) *why = reason;
+    return std::nullopt;
+  };
+  if (samples_.empty()) return stale("no pressure_setpoint received yet");
+  const double t1 = samples_.back().first, p1 = samples_.back().second;
+  const double age = now.clock - t1, silent = now.steady - arrival_;
+  if (!(age <= limits_.max_age)) {
+    return stale(formatted("pressure_setpoint is stale (stamped %.3f s before the clock, ", age) +
+                 formatted("allowed %.3f s)", limits_.max_age));
+  }
+  if (!(silent <= limits_.max_age)) {
+    return stale(formatted("pressure_setpoint is lost (none arrived for %.0f ms, ", silent * 1e3) +
+                 formatted("allowed %.0f ms)", limits_.max_age * 1e3));
+  }
+  if (!(age >= -limits_.max_clock_offset)) {
+    return stale(formatted("pressure_setpoint is stamped %.3f s ahead of the clock (tolerance ", -age) +
+                 formatted("%.3f s): its clock is not the node's", limits_.max_clock_offset));
+  }
+  const double r = rate();
+  // Extrapolated over the valve's lag and the set-point's own age, never further.
+  const double horizon = std::clamp(now.clock + ahead - t1, 0.0, limits_.max_age + ahead);
+  return std::make_pair(p1 + r * horizon, r);
 }
 
 }  // namespace die_cushion_ident

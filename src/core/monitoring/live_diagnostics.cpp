@@ -34,23 +34,26 @@ HealthReport inputHealth(const InputState& in) {
   r.add("implausible values", h.implausible);
   r.add("wild stamps", h.wild_stamps);
   if (in.new_wild_stamps) {
-    r.summary(HealthLevel::kError, "stamps " + formatted("%+.3g s", h.last_wild_offset) +
-                                       " off the other topics (its clock jumped): " + std::to_string(h.wild_stamps) +
-                                       " messages rejected so far; the identification goes on without them");
+    r.summary(HealthLevel::kError,
+              "stamps " + formatted("%+.3g s", h.last_wild_offset) +
+                  " off the other topics (its clock jumped): " + std::to_string(h.wild_stamps) +
+                  " messages rejected so far; the identification goes on without them");
   } else if (h.received == 0 && in.rejected == 0) {
     r.summary(HealthLevel::kError, "no messages received");
   } else if (h.accepted == 0) {
     r.summary(HealthLevel::kError, "every message rejected: " + in.last_rejection);
   } else if (h.stale) {
     // Silent while the other topics run (judged on stamps, so a processing delay is not staleness).
-    r.summary(HealthLevel::kError, "stale: silent for " + formatted("%.2f s", age) + " while the other inputs run");
+    r.summary(HealthLevel::kError,
+              "stale: silent for " + formatted("%.2f s", age) + " while the other inputs run");
   } else if (in.all_inputs_silent_for > kInputSilenceLimit) {
     r.summary(HealthLevel::kError,
               "no input for " + formatted("%.2f s", in.all_inputs_silent_for) + " (all three topics silent)");
   } else if (in.stream == InputStream::kValve && !(in.spool_age < 1.0)) {
     r.summary(HealthLevel::kWarn, "spool position not measured (NaN): predicted with the valve model");
   } else if (in.rejected > 0) {
-    r.summary(HealthLevel::kWarn, std::to_string(in.rejected) + " messages rejected, last: " + in.last_rejection);
+    r.summary(HealthLevel::kWarn,
+              std::to_string(in.rejected) + " messages rejected, last: " + in.last_rejection);
   } else {
     r.summary(HealthLevel::kOk, "receiving at " + formatted("%.0f Hz", h.rate()));
   }
@@ -67,7 +70,8 @@ HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimat
   std::string problem;
   for (const auto& p : e.parameters) {
     r.add(p.name + " [" + p.unit + "]", formatted("%.4g", p.value) + " +/- " + formatted("%.2g", p.std));
-    if (problem.empty() && (!std::isfinite(p.value) || !std::isfinite(p.std))) problem = p.name + " is not finite";
+    if (problem.empty() && (!std::isfinite(p.value) || !std::isfinite(p.std)))
+      problem = p.name + " is not finite";
     if (p.value != 0.0) worst_relative_std = std::max(worst_relative_std, std::abs(p.std / p.value));
   }
   r.add("largest relative std", formatted("%.3f", worst_relative_std));
@@ -95,13 +99,13 @@ HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimat
 HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& v, const ServoValveFit& f) {
   HealthReport r;
   r.add("sweep", sweepStateName(sweep.state()));
-  r.add("model used for spool prediction", formatted("%.1f Hz", v.natural_frequency) + ", D " +
-                                               formatted("%.2f", v.damping) + ", K " +
-                                               formatted("%.4g 1/V", v.gain) + ", Td " +
-                                               formatted("%.2f ms", v.dead_time * 1e3));
+  r.add("model used for spool prediction",
+        formatted("%.1f Hz", v.natural_frequency) + ", D " + formatted("%.2f", v.damping) + ", K " +
+            formatted("%.4g 1/V", v.gain) + ", Td " + formatted("%.2f ms", v.dead_time * 1e3));
   if (sweep.running()) {
     r.add("frequency [Hz]", formatted("%.1f", sweep.currentFrequency()));
-    r.add("progress", std::to_string(sweep.currentIndex()) + " of " + std::to_string(sweep.request().frequencies.size()));
+    r.add("progress",
+          std::to_string(sweep.currentIndex()) + " of " + std::to_string(sweep.request().frequencies.size()));
     r.summary(HealthLevel::kOk, "sweep running");
     return r;
   }
@@ -123,24 +127,42 @@ HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& v,
   r.add("identified dead time [ms]", formatted("%.3f", f.parameters.dead_time * 1e3));
   r.add("points distorted", static_cast<std::uint64_t>(f.points_rejected));
   if (f.reduced_chi_square > 10.0) {
-    r.summary(HealthLevel::kWarn, "identified, but the 2nd-order model misses the measured response (chi2/dof " +
-                                      formatted("%.1f", f.reduced_chi_square) + ")");
+    r.summary(HealthLevel::kWarn,
+              "identified, but the 2nd-order model misses the measured response (chi2/dof " +
+                  formatted("%.1f", f.reduced_chi_square) + ")");
   } else {
     r.summary(HealthLevel::kOk, "identified by the last sweep and in use");
   }
   return r;
 }
 
-HealthReport valveExperimentsHealth(const ValveExperiments& experiments, bool feed_forward_engaged, double now) {
+HealthReport valveExperimentsHealth(const ValveSupervisor& supervisor, Instant now) {
   HealthReport r;
+  const ValveExperiments& experiments = supervisor.experiments();
   const std::string holder = experiments.holder();
   r.add("running", holder.empty() ? "none" : holder);
-  r.add("feed-forward", !feed_forward_engaged ? "not engaged"
-                        : holder.empty()      ? "engaged"
-                                              : "paused while " + holder + " holds the valve");
+  r.add("feed-forward", !supervisor.feedForwardEngaged() ? "not engaged"
+                        : holder.empty()                 ? "engaged"
+                                                         : "paused while " + holder + " holds the valve");
+  const PlantCondition plant = supervisor.condition(now);
+  const auto age = [](double seconds) {
+    return std::isfinite(seconds) ? formatted("%.1f", seconds * 1e3) : std::string("never received");
+  };
+  r.add("pressure arrived [ms ago]", age(plant.pressure_age));
+  r.add("position arrived [ms ago]", age(plant.position_age));
+  r.add("valve arrived [ms ago]", age(plant.valve_age));
+  r.add("spool arrived [ms ago]", age(plant.spool_age));
+  r.add("supervision timeout [ms]", formatted("%.1f", supervisor.limits().signal_timeout * 1e3));
+  r.add("clocks", plant.clock_problem.empty() ? "the stamps agree with the clock" : plant.clock_problem);
   r.add("last refusal", experiments.lastRefusal().empty() ? "none" : experiments.lastRefusal());
   r.add("last ended", experiments.lastEnd().empty() ? "none" : experiments.lastEnd());
-  const double since_refusal = now - experiments.lastRefusalTime();
+  if (const auto& fault = supervisor.lastFault()) {
+    r.add("last fault", fault->output + " stopped: " + fault->reason);
+    r.add("last fault: safe value after [ms]", std::isnan(fault->safe_after)
+                                                   ? std::string("not yet")
+                                                   : formatted("%.1f", fault->safe_after * 1e3));
+  }
+  const double since_refusal = now.steady - experiments.lastRefusalTime();
   if (!holder.empty()) {
     r.summary(HealthLevel::kOk, holder + " holds the valve");
   } else if (since_refusal >= 0.0 && since_refusal < kRecentRefusal) {
@@ -149,6 +171,14 @@ HealthReport valveExperimentsHealth(const ValveExperiments& experiments, bool fe
   } else {
     r.summary(HealthLevel::kOk, "no valve experiment runs");
   }
+  return r;
+}
+
+HealthReport feedForwardOutputHealth(const ValveSupervisor& supervisor) {
+  HealthReport r;
+  r.add("output", supervisor.feedForwardState());
+  r.add("last voltage [V]", formatted("%.3f", supervisor.feedForwardOutput()));
+  r.add("switched", supervisor.feedForwardEnabled() ? "on" : "off (~enable_feed_forward)");
   return r;
 }
 
@@ -172,8 +202,8 @@ HealthReport adequacyHealth(const LiveModelMonitor& m, double equation_error_rms
   if (const auto& ranking = m.ranking()) {
     r.add("effect ranking", ranking->conclusion);
     for (const auto& c : ranking->candidates) {
-      r.add("candidate " + c.effect,
-            verdictName(c.verdict) + std::string(", ") + formatted("%.0f %% less error", 100 * c.error_reduction));
+      r.add("candidate " + c.effect, verdictName(c.verdict) + std::string(", ") +
+                                         formatted("%.0f %% less error", 100 * c.error_reduction));
     }
     if (!ranking->candidates.empty() && ranking->candidates.front().verdict == Verdict::kMissing) {
       where += "; suspected missing effect: " + ranking->candidates.front().effect;
@@ -191,8 +221,8 @@ HealthReport adequacyHealth(const LiveModelMonitor& m, double equation_error_rms
     } else if (m.comparisonBlocker()[0] != '\0') {
       why = std::string("the model cannot run: ") + m.comparisonBlocker();
     } else {
-      why = std::to_string(m.comparedSamples()) + " of " + std::to_string(LiveModelMonitor::kSamplesBeforeVerdict) +
-            " samples compared";
+      why = std::to_string(m.comparedSamples()) + " of " +
+            std::to_string(LiveModelMonitor::kSamplesBeforeVerdict) + " samples compared";
     }
     r.add("why no comparison yet", why);
     r.summary(HealthLevel::kOk, "not enough data yet: " + why);
@@ -200,7 +230,8 @@ HealthReport adequacyHealth(const LiveModelMonitor& m, double equation_error_rms
     r.summary(rms > error_error ? HealthLevel::kError : HealthLevel::kWarn,
               "the model misses the pressure by " + formatted("%.1f bar", rms * 1e-5) + " rms, " + where);
   } else {
-    r.summary(HealthLevel::kOk, "the model follows the pressure within " + formatted("%.1f bar", rms * 1e-5) + " rms");
+    r.summary(HealthLevel::kOk,
+              "the model follows the pressure within " + formatted("%.1f bar", rms * 1e-5) + " rms");
   }
   return r;
 }
@@ -220,11 +251,12 @@ HealthReport timingHealth(const TimingState& t) {
     return r;
   }
   if (t.time_base_restarts > 0 && t.since_restart < kRestartWarnFor) {
-    r.summary(HealthLevel::kWarn,
-              formatted("the stamps jumped back %.1f s ago (rosbag play --loop, or a driver restarted): the "
-                        "identification, the model comparison and the ranking started over from the initial values "
-                        "(%.0f restarts so far)",
-                        t.since_restart, static_cast<double>(t.time_base_restarts)));
+    r.summary(
+        HealthLevel::kWarn,
+        formatted("the stamps jumped back %.1f s ago (rosbag play --loop, or a driver restarted): the "
+                  "identification, the model comparison and the ranking started over from the initial values "
+                  "(%.0f restarts so far)",
+                  t.since_restart, static_cast<double>(t.time_base_restarts)));
     return r;
   }
   if (t.delays_configured && !t.estimate) {
@@ -232,7 +264,8 @@ HealthReport timingHealth(const TimingState& t) {
     return r;
   }
   if (!t.estimate) {
-    r.summary(HealthLevel::kOk, "clock offsets between the topics not estimated yet (needs strokes in the ranking window)");
+    r.summary(HealthLevel::kOk,
+              "clock offsets between the topics not estimated yet (needs strokes in the ranking window)");
     return r;
   }
   double largest = 0.0;
@@ -248,16 +281,18 @@ HealthReport timingHealth(const TimingState& t) {
   if (valve > kLargeTopicDelay && valve >= largest && t.estimate->valve_model_timing > 0.0) {
     r.summary(HealthLevel::kWarn, valveTimingWarning(t.estimate->delays[2], true));
   } else if (largest > kLargeTopicDelay) {
-    r.summary(HealthLevel::kWarn, "topics stamped by different clocks: up to " + formatted("%.1f ms", largest * 1e3) +
-                                      " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");
+    r.summary(HealthLevel::kWarn,
+              "topics stamped by different clocks: up to " + formatted("%.1f ms", largest * 1e3) +
+                  " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");
   } else {
-    r.summary(HealthLevel::kOk, "topics in step (largest offset " + formatted("%.2f ms", largest * 1e3) + ")");
+    r.summary(HealthLevel::kOk,
+              "topics in step (largest offset " + formatted("%.2f ms", largest * 1e3) + ")");
   }
   return r;
 }
 
-HealthReport stepTestHealth(const std::optional<StepResponse>& response, const std::string& status, bool failed,
-                            double sample_period) {
+HealthReport stepTestHealth(const std::optional<StepResponse>& response, const std::string& status,
+                            bool failed, double sample_period) {
   HealthReport r;
   if (!response) {
     r.summary(failed ? HealthLevel::kWarn : HealthLevel::kOk, status);

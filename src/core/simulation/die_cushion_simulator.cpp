@@ -120,9 +120,11 @@ void DieCushionSimulator::step(std::vector<SimulatedMeasurement>* out) {
     // The press program is known ahead: the command is taken from where the trajectory will be when the
     // valve has answered (its lead time).
     const auto ahead = program_.at(state_.t + feed_forward_->leadTime());
-    const double rate = (program_.at(state_.t + feed_forward_->leadTime() + dt).pressure_setpoint -
-                         ahead.pressure_setpoint) / dt;
+    const double rate =
+        (program_.at(state_.t + feed_forward_->leadTime() + dt).pressure_setpoint - ahead.pressure_setpoint) /
+        dt;
     added = feed_forward_->command(ahead.pressure_setpoint, rate, ahead.x, ahead.v);
+    if (!std::isfinite(added)) added = 0.0;  // no command the model can give: the PI alone
   }
   state_.u = override_voltage_ ? *override_voltage_
              : continuous      ? command_signal_(state_.t)

@@ -1,29 +1,61 @@
 #include "die_cushion_ident/core/valve/plant_signals.h"
 
-#include <algorithm>
 #include <cmath>
+
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
 
-void PlantSignals::pressure(double stamp, double value) {
+namespace {
+const char* const kTopicNames[] = {"pressure", "position", "valve"};
+}  // namespace
+
+PlantSignals::PlantSignals(double max_clock_offset) : max_clock_offset_(max_clock_offset) {}
+
+void PlantSignals::stamped(Topic topic, double stamp, Instant arrival) {
+  // A non-finite stamp cannot be placed on any clock: infinitely off.
+  const double offset = stamp - arrival.clock;
+  clock_offset_[topic] = std::isfinite(offset) ? offset : std::numeric_limits<double>::infinity();
+}
+
+void PlantSignals::pressure(double stamp, double value, Instant arrival) {
+  stamped(kPressure, stamp, arrival);
   if (!std::isfinite(value)) return;
   pressure_ = value;
-  pressure_stamp_ = stamp;
+  pressure_arrival_ = arrival.steady;
 }
 
-void PlantSignals::spool(double stamp, double spool) {
-  if (std::isfinite(spool)) spool_stamp_ = stamp;
+void PlantSignals::position(double stamp, double x, Instant arrival) {
+  stamped(kPosition, stamp, arrival);
+  if (!std::isfinite(x) || !std::isfinite(stamp)) return;
+  velocity_.push(stamp, x);
+  position_arrival_ = arrival.steady;
 }
 
-PlantCondition PlantSignals::at(double now) const {
+void PlantSignals::valve(double stamp, double spool, Instant arrival) {
+  stamped(kValve, stamp, arrival);
+  valve_arrival_ = arrival.steady;
+  if (std::isfinite(spool)) spool_arrival_ = arrival.steady;
+}
+
+PlantCondition PlantSignals::at(Instant now) const {
   PlantCondition c;
-  const double newest = std::max(pressure_stamp_, spool_stamp_);
-  const double silence = now - newest;
-  const double silent_for = silence > kInputSilenceTolerance ? silence : 0.0;
   c.pressure = pressure_;
-  c.pressure_age = newest - pressure_stamp_ + silent_for;
+  c.pressure_age = now.steady - pressure_arrival_;
+  c.position_age = now.steady - position_arrival_;
   c.velocity = velocity_.velocity();
-  c.spool_age = newest - spool_stamp_ + silent_for;
+  c.valve_age = now.steady - valve_arrival_;
+  c.spool_age = now.steady - spool_arrival_;
+  for (int topic = 0; topic < kTopics; ++topic) {
+    const double offset = clock_offset_[topic];
+    if (std::abs(offset) <= max_clock_offset_) continue;
+    c.clock_problem =
+        std::string("the ") + kTopicNames[topic] + " topic's stamps are " +
+        (std::isfinite(offset) ? formatted("%.3f s ", std::abs(offset)) + (offset > 0 ? "ahead of" : "behind")
+                               : std::string("not finite against")) +
+        formatted(" the clock (tolerance %g s, sweep_max_clock_offset)", max_clock_offset_);
+    break;
+  }
   return c;
 }
 

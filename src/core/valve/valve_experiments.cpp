@@ -14,20 +14,20 @@ const char* nameOf(ValveExperiments::Kind kind) {
 
 ValveExperiments::ValveExperiments(const SweepLimits& limits) : sweep_(limits), step_test_(limits) {}
 
-std::string ValveExperiments::refuse(Kind kind, const std::string& reason, double now) {
+std::string ValveExperiments::refuse(Kind kind, const std::string& reason, Instant now) {
   last_refusal_ = std::string(nameOf(kind)) + " refused: " + reason;
-  last_refusal_time_ = now;
+  last_refusal_time_ = now.steady;
   return reason;
 }
 
-std::string ValveExperiments::startSweep(const SweepRequest& request, double now,
+std::string ValveExperiments::startSweep(const SweepRequest& request, Instant now,
                                          const PlantCondition& plant) {
   if (holdsValve()) return refuse(Kind::kSweep, holder() + " holds the valve; abort it first", now);
   const std::string refusal = sweep_.start(request, now, plant);
   return refusal.empty() ? "" : refuse(Kind::kSweep, refusal, now);
 }
 
-std::string ValveExperiments::startStepTest(const StepTestRequest& request, double now,
+std::string ValveExperiments::startStepTest(const StepTestRequest& request, Instant now,
                                             const PlantCondition& plant) {
   if (holdsValve()) return refuse(Kind::kStepTest, holder() + " holds the valve; abort it first", now);
   const std::string refusal = step_test_.start(request, now, plant);
@@ -49,7 +49,7 @@ std::string ValveExperiments::abort(const std::string& reason) {
   return std::string(nameOf(before)) + formatted(" aborted; the valve command returns to %g V", offset);
 }
 
-void ValveExperiments::supervise(double now, const PlantCondition& plant) {
+void ValveExperiments::supervise(Instant now, const PlantCondition& plant) {
   const Kind before = running();
   sweep_.supervise(now, plant);
   step_test_.supervise(now, plant);

@@ -27,6 +27,7 @@ const LimitKey kLimitKeys[] = {
     {"sweep_max_duration", &SweepLimits::max_duration},
     {"sweep_max_distortion", &SweepLimits::max_distortion},
     {"step_max_pressure", &SweepLimits::step_max_pressure},
+    {"sweep_max_clock_offset", &SweepLimits::max_clock_offset},
 };
 
 }  // namespace
@@ -53,7 +54,8 @@ std::vector<std::string> SweepLimits::validate() const {
   std::vector<std::string> problems;
   const auto require = [&](const char* key, double value, bool ok, const char* allowed) {
     if (!ok)
-      problems.push_back(std::string(key) + " = " + formatted("%g", value) + " is invalid: allowed " + allowed);
+      problems.push_back(std::string(key) + " = " + formatted("%g", value) + " is invalid: allowed " +
+                         allowed);
   };
   require("sweep_max_amplitude", max_amplitude, std::isfinite(max_amplitude) && max_amplitude > 0.0, "> 0 V");
   require("sweep_min_voltage", min_voltage, std::isfinite(min_voltage), "a finite voltage");
@@ -71,6 +73,9 @@ std::vector<std::string> SweepLimits::validate() const {
           "> 0");
   require("step_max_pressure", step_max_pressure, std::isfinite(step_max_pressure) && step_max_pressure > 0.0,
           "> 0 Pa");
+  require("sweep_max_clock_offset", max_clock_offset,
+          std::isfinite(max_clock_offset) && max_clock_offset >= 1e-3 && max_clock_offset <= 3600.0,
+          "[1e-3, 3600] s");
   return problems;
 }
 
@@ -117,12 +122,12 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
     return formatted("amplitude %g V is invalid: allowed > 0 V", r.amplitude);
   if (r.amplitude > limits.max_amplitude) {
     return formatted("amplitude %g V is above the limit sweep_max_amplitude = %g V", r.amplitude,
-                  limits.max_amplitude);
+                     limits.max_amplitude);
   }
   if (!std::isfinite(r.offset)) return "offset is not finite";
   if (r.offset - r.amplitude < limits.min_voltage || r.offset + r.amplitude > limits.max_voltage) {
     return formatted("offset %g V +/- amplitude leaves the command range [%g, %g] V (sweep_min/max_voltage)",
-                  r.offset, limits.min_voltage, limits.max_voltage);
+                     r.offset, limits.min_voltage, limits.max_voltage);
   }
   if (!std::isfinite(r.settle_periods) || r.settle_periods < 0.0)
     return formatted("settle_periods %g is invalid: allowed >= 0", r.settle_periods);
@@ -135,7 +140,7 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
     return formatted("min_integration_time %g s is invalid: allowed [0, 3600] s", r.min_integration_time);
   if (r.totalDuration() > limits.max_duration) {
     return formatted("the sweep would take %.1f s, longer than sweep_max_duration = %g s", r.totalDuration(),
-                  limits.max_duration);
+                     limits.max_duration);
   }
   {
     // The fit of natural frequency, damping, gain and dead time needs five distinct points: refuse now
@@ -145,7 +150,7 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
     const auto size = std::unique(distinct.begin(), distinct.end()) - distinct.begin();
     if (size < kMinSweepFrequencies) {
       return formatted("%g distinct frequencies requested: the valve model's fit needs at least 5",
-                    static_cast<double>(size));
+                       static_cast<double>(size));
     }
   }
   return "";
@@ -175,17 +180,38 @@ double ValveSweep::currentFrequency() const {
   return request_.frequencies[index_];
 }
 
-std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits, const std::string& tests) {
+namespace {
+
+/// Why the inputs the interlocks read cannot be trusted now ("" when they can): a stamp off the clock, the
+/// pressure or the position lost (no message within sweep_signal_timeout of steady time) or not finite.
+std::string inputsLostReason(const PlantCondition& plant, const SweepLimits& limits) {
+  if (!plant.clock_problem.empty()) return plant.clock_problem;
   if (!(plant.pressure_age <= limits.signal_timeout) || !std::isfinite(plant.pressure)) {
-    return "the chamber pressure is unknown or stale, so the pressure limit cannot be checked";
+    return formatted(
+        "the chamber pressure is lost (no finite reading for %.0f ms, limit %.0f ms): the pressure "
+        "limit cannot be checked",
+        std::min(plant.pressure_age, 1e9) * 1e3, limits.signal_timeout * 1e3);
   }
+  if (!(plant.position_age <= limits.signal_timeout)) {
+    return formatted(
+        "the cushion's position is lost (no reading for %.0f ms, limit %.0f ms): rest cannot be "
+        "confirmed",
+        std::min(plant.position_age, 1e9) * 1e3, limits.signal_timeout * 1e3);
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits, const std::string& tests) {
+  if (const std::string lost = inputsLostReason(plant, limits); !lost.empty()) return lost;
   if (plant.pressure > limits.max_pressure) {
-    return formatted("the chamber pressure %.1f bar is above the sweep limit %.1f bar (sweep_max_pressure)",
+    return formatted("the chamber pressure %.4g bar is above the sweep limit %.1f bar (sweep_max_pressure)",
                      plant.pressure * 1e-5, limits.max_pressure * 1e-5);
   }
   if (!std::isfinite(plant.velocity)) return "the cushion velocity is unknown, so rest cannot be confirmed";
   if (std::abs(plant.velocity) > limits.max_rest_velocity) {
-    return formatted("the cushion is moving (%.4f m/s; at rest below %g m/s): ", plant.velocity,
+    return formatted("the cushion is moving (%.4g m/s; at rest below %g m/s): ", plant.velocity,
                      limits.max_rest_velocity) +
            tests + " run only at rest";
   }
@@ -194,27 +220,38 @@ std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits
 
 std::string restLostReason(const PlantCondition& plant, const SweepLimits& limits, double max_pressure,
                            const std::string& bound) {
-  if (!(plant.pressure_age <= limits.signal_timeout) || !std::isfinite(plant.pressure)) {
-    return "pressure signal stale or not finite: the pressure limit cannot be checked";
-  }
+  if (const std::string lost = inputsLostReason(plant, limits); !lost.empty()) return lost;
   if (plant.pressure > max_pressure) {
-    return formatted("chamber pressure %.1f bar over ", plant.pressure * 1e-5) + bound +
+    return formatted("chamber pressure %.4g bar over ", plant.pressure * 1e-5) + bound +
            formatted(" %.1f bar", max_pressure * 1e-5);
   }
-  if (std::isfinite(plant.velocity) && std::abs(plant.velocity) > limits.max_rest_velocity) {
-    return formatted("the cushion started moving (%.4f m/s)", plant.velocity);
+  if (!std::isfinite(plant.velocity)) return "the cushion velocity is no longer known";
+  if (std::abs(plant.velocity) > limits.max_rest_velocity) {
+    return formatted("the cushion started moving (%.4g m/s)", plant.velocity);
   }
   return "";
 }
 
-std::string ValveSweep::start(const SweepRequest& request, double now, const PlantCondition& plant) {
+std::string durationExceeded(Instant started, Instant now, double expected, double max_duration) {
+  const double steady = now.steady - started.steady, clock = now.clock - started.clock;
+  if (steady > max_duration) {
+    return formatted("it ran %.1f s (steady clock), beyond sweep_max_duration = %g s", steady, max_duration);
+  }
+  const double allowed = std::min(2.0 * expected + 5.0, max_duration);
+  if (clock > allowed) {
+    return formatted("it ran %.1f s, more than twice its expected %.1f s plus 5 s", clock, expected);
+  }
+  return "";
+}
+
+std::string ValveSweep::start(const SweepRequest& request, Instant now, const PlantCondition& plant) {
   if (running()) {
     return formatted("a sweep is already running (frequency %g of %g); abort it first", index_ + 1.0,
-                  static_cast<double>(request_.frequencies.size()));
+                     static_cast<double>(request_.frequencies.size()));
   }
   const std::string invalid = checkSweepRequest(request, limits_);
   if (!invalid.empty()) return invalid;
-  if (!std::isfinite(now)) return "the clock is not valid";
+  if (!std::isfinite(now.clock) || !std::isfinite(now.steady)) return "the clock is not valid";
   const std::string not_at_rest = atRestRefusal(plant, limits_, "sweeps");
   if (!not_at_rest.empty()) return not_at_rest;
   if (!(plant.spool_age <= limits_.signal_timeout)) {
@@ -222,6 +259,7 @@ std::string ValveSweep::start(const SweepRequest& request, double now, const Pla
   }
   request_ = request;
   std::sort(request_.frequencies.begin(), request_.frequencies.end());
+  started_ = now;
   state_ = State::kRunning;
   abort_reason_.clear();
   index_ = 0;
@@ -233,15 +271,18 @@ std::string ValveSweep::start(const SweepRequest& request, double now, const Pla
   return "";
 }
 
-void ValveSweep::supervise(double now, const PlantCondition& plant) {
+void ValveSweep::supervise(Instant now, const PlantCondition& plant) {
   if (!running()) return;
-  (void)now;
-  if (!(plant.spool_age <= limits_.signal_timeout)) {
-    abort(formatted("spool signal stale (last sample %.1f ms ago, limit %.1f ms)", plant.spool_age * 1e3,
-                 limits_.signal_timeout * 1e3));
-  } else {
-    const std::string reason = restLostReason(plant, limits_, limits_.max_pressure, "the sweep limit");
-    if (!reason.empty()) abort(reason);
+  if (const std::string overrun =
+          durationExceeded(started_, now, request_.totalDuration(), limits_.max_duration);
+      !overrun.empty()) {
+    abort("the sweep did not finish: " + overrun);
+  } else if (const std::string lost = restLostReason(plant, limits_, limits_.max_pressure, "the sweep limit");
+             !lost.empty()) {
+    abort(lost);
+  } else if (!(plant.spool_age <= limits_.signal_timeout)) {
+    abort(formatted("the spool signal is lost (no measured spool for %.0f ms, limit %.0f ms)",
+                    std::min(plant.spool_age, 1e9) * 1e3, limits_.signal_timeout * 1e3));
   }
 }
 
@@ -255,20 +296,27 @@ void ValveSweep::addValveSample(double t, double voltage, double spool) {
     abort("valve voltage or stamp not finite on the valve topic");
     return;
   }
-  if (!estimator_ || segment_pending_) return;
+  if (segment_pending_) return;
+  if (!estimator_) {
+    // The window is placed on the valve topic's own stamps, counted from its first message at this
+    // frequency: the echo and the spool it correlates are stamped by the drive, whose clock may be off the
+    // node's by a constant (within sweep_max_clock_offset) without moving the window off the transient.
+    const double f = currentFrequency();
+    const double settle = std::max(request_.settle_periods / f, request_.settle_time);
+    const double periods =
+        std::max(request_.integration_periods, std::ceil(request_.min_integration_time * f));
+    FrequencyPointEstimator::Options options;
+    options.command_hold = std::isnan(command_hold_) ? limits_.command_period : command_hold_;
+    options.sample_rate = 1.0 / limits_.command_period;
+    options.max_distortion = limits_.max_distortion;
+    estimator_ = std::make_unique<FrequencyPointEstimator>(f, t + settle, periods, options);
+  }
   if (estimator_->add(t, voltage, spool)) finishFrequency();
 }
 
 void ValveSweep::beginFrequency(double now) {
-  const double f = currentFrequency();
-  const double settle = std::max(request_.settle_periods / f, request_.settle_time);
-  const double periods = std::max(request_.integration_periods, std::ceil(request_.min_integration_time * f));
-  FrequencyPointEstimator::Options options;
-  options.command_hold = std::isnan(command_hold_) ? limits_.command_period : command_hold_;
-  options.sample_rate = 1.0 / limits_.command_period;
-  options.max_distortion = limits_.max_distortion;
   segment_start_ = now;
-  estimator_ = std::make_unique<FrequencyPointEstimator>(f, now + settle, periods, options);
+  estimator_.reset();  // made at the frequency's first valve message
   segment_pending_ = false;
 }
 
@@ -300,8 +348,8 @@ std::optional<double> ValveSweep::command(double now) {
 
 double ValveSweep::commandAt(double t) const {
   if (!running() || segment_pending_) return request_.offset;
-  const double u = request_.offset +
-                   request_.amplitude * std::sin(2.0 * M_PI * currentFrequency() * (t - segment_start_));
+  const double u =
+      request_.offset + request_.amplitude * std::sin(2.0 * M_PI * currentFrequency() * (t - segment_start_));
   return std::clamp(u, limits_.min_voltage, limits_.max_voltage);
 }
 

@@ -41,7 +41,7 @@ StepRecording recordStep(std::uint64_t seed, double step_voltage, double hold = 
       }
     }
   };
-  run(0.7, false);  // the controller holds the rest pressure
+  run(0.7, false);                            // the controller holds the rest pressure
   const double offset = simulator.state().u;  // as ~start_step_test holds it before the step
   simulator.setValveCommandOverride(offset);
   run(1.0, false);
@@ -67,8 +67,8 @@ TEST(StepResponse, T63FromTheRecordingMatchesTheNoiseFreeTraceWithinTenPercent) 
       const double truth = timeTo63Percent(r.true_t, r.true_p, r.step_time, r.initial_pressure, 0.2);
       ASSERT_TRUE(std::isfinite(truth));
       std::printf("seed %llu, step %+.1f V: %.1f -> %.1f bar, t63 %.1f ms (noise-free trace %.1f ms)\n",
-                  static_cast<unsigned long long>(seed), step, s.initial_pressure * 1e-5, s.final_pressure * 1e-5,
-                  s.t63 * 1e3, truth * 1e3);
+                  static_cast<unsigned long long>(seed), step, s.initial_pressure * 1e-5,
+                  s.final_pressure * 1e-5, s.t63 * 1e3, truth * 1e3);
       EXPECT_NEAR(s.t63 / truth, 1.0, 0.10);
       EXPECT_NEAR(s.step_voltage, step, 1e-5);  // the grid keeps channels in single precision
       EXPECT_NEAR(s.start, r.step_time, 0.002);
@@ -104,7 +104,8 @@ TEST(StepResponse, ASamplingTimeAboveATenthOfT63IsWarnedAbout) {
 }
 
 TEST(StepResponse, PressCyclesAndSmallCommandChangesAreNoStepTest) {
-  EXPECT_TRUE(findStepResponses(testing::record(testing::randomPlant(54), 4).grid).empty()) << "the controller's commands during strokes are no step test";
+  EXPECT_TRUE(findStepResponses(testing::record(testing::randomPlant(54), 4).grid).empty())
+      << "the controller's commands during strokes are no step test";
   EXPECT_TRUE(findStepResponses(recordStep(55, 0.05).grid).empty()) << "below min_step";
   EXPECT_TRUE(findStepResponses(recordStep(55, -0.5, 0.1).grid).empty()) << "held too briefly";
 }
@@ -124,28 +125,30 @@ TEST(ValveStepTest, IsRefusedAndAbortedWhereUnsafeAndAlwaysEndsAtTheOffset) {
     ValveStepTest test(limits);
     PlantCondition moving = rest;
     moving.velocity = 0.1;
-    EXPECT_NE(test.start(request, 0.0, moving).find("moving"), std::string::npos);
+    EXPECT_NE(test.start(request, Instant::simulated(0.0), moving).find("moving"), std::string::npos);
     PlantCondition stale = rest;
     stale.pressure_age = 1.0;
-    EXPECT_NE(test.start(request, 0.0, stale).find("stale"), std::string::npos);
+    EXPECT_NE(test.start(request, Instant::simulated(0.0), stale).find("pressure is lost"),
+              std::string::npos);
     PlantCondition high = rest;
     high.pressure = 90e5;
-    EXPECT_NE(test.start(request, 0.0, high).find("sweep_max_pressure"), std::string::npos);
+    EXPECT_NE(test.start(request, Instant::simulated(0.0), high).find("sweep_max_pressure"),
+              std::string::npos);
     StepTestRequest big = request;
     big.step = -2.0;
-    EXPECT_NE(test.start(big, 0.0, rest).find("sweep_max_amplitude"), std::string::npos);
+    EXPECT_NE(test.start(big, Instant::simulated(0.0), rest).find("sweep_max_amplitude"), std::string::npos);
     StepTestRequest outside = request;
     outside.offset = 3.8;
     outside.step = 0.5;
-    EXPECT_NE(test.start(outside, 0.0, rest).find("would leave"), std::string::npos);
+    EXPECT_NE(test.start(outside, Instant::simulated(0.0), rest).find("would leave"), std::string::npos);
     StepTestRequest nan = request;
     nan.offset = std::nan("");
-    EXPECT_FALSE(test.start(nan, 0.0, rest).empty());
+    EXPECT_FALSE(test.start(nan, Instant::simulated(0.0), rest).empty());
     EXPECT_EQ(test.state(), ValveStepTest::State::kIdle);
   }
   {
     ValveStepTest test(limits);
-    ASSERT_EQ(test.start(request, 10.0, rest), "");
+    ASSERT_EQ(test.start(request, Instant::simulated(10.0), rest), "");
     EXPECT_DOUBLE_EQ(*test.command(10.1), 0.2) << "the offset held before the step";
     EXPECT_DOUBLE_EQ(*test.command(10.5), -0.3) << "offset + step";
     EXPECT_DOUBLE_EQ(*test.command(11.9), 0.2) << "the offset again at the end";
@@ -154,11 +157,11 @@ TEST(ValveStepTest, IsRefusedAndAbortedWhereUnsafeAndAlwaysEndsAtTheOffset) {
   }
   {
     ValveStepTest test(limits);
-    ASSERT_EQ(test.start(request, 0.0, rest), "");
+    ASSERT_EQ(test.start(request, Instant::simulated(0.0), rest), "");
     EXPECT_DOUBLE_EQ(*test.command(0.5), -0.3);
     PlantCondition over = rest;
     over.pressure = 260e5;  // beyond step_max_pressure
-    test.supervise(0.6, over);
+    test.supervise(Instant::simulated(0.6), over);
     EXPECT_EQ(test.state(), ValveStepTest::State::kAborted);
     EXPECT_NE(test.abortReason().find("step_max_pressure"), std::string::npos);
     EXPECT_DOUBLE_EQ(*test.command(0.61), 0.2) << "abort restores the offset";

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <random>
 
-#include "die_cushion_ident/core/monitoring/live_diagnostics.h"
 #include "die_cushion_ident/core/valve/valve_experiments.h"
 #include "sweep_fixtures.h"
 
@@ -33,37 +32,38 @@ SweepRequest sweep(double offset = 0.1) {
 TEST(ValveExperiments, OneAtATimeAndTheRefusalSaysWhichHoldsTheValve) {
   ValveExperiments experiments{SweepLimits()};
   EXPECT_EQ(experiments.holder(), "");
-  ASSERT_EQ(experiments.startStepTest(step(), 0.0, atRest()), "");
+  ASSERT_EQ(experiments.startStepTest(step(), Instant::simulated(0.0), atRest()), "");
   EXPECT_EQ(experiments.running(), ValveExperiments::Kind::kStepTest);
   EXPECT_EQ(experiments.holder(), "a step test");
-  const std::string refusal = experiments.startSweep(sweep(), 0.01, atRest());
+  const std::string refusal = experiments.startSweep(sweep(), Instant::simulated(0.01), atRest());
   EXPECT_NE(refusal.find("a step test holds the valve"), std::string::npos) << refusal;
   EXPECT_EQ(experiments.running(), ValveExperiments::Kind::kStepTest);
   EXPECT_NE(experiments.lastRefusal().find("valve sweep refused"), std::string::npos);
-  EXPECT_DOUBLE_EQ(experiments.lastRefusalTime(), 0.01);
+  EXPECT_DOUBLE_EQ(experiments.lastRefusalTime(), 0.01) << "on the steady clock";
   // A second step test is refused too.
-  EXPECT_NE(experiments.startStepTest(step(), 0.02, atRest()), "");
+  EXPECT_NE(experiments.startStepTest(step(), Instant::simulated(0.02), atRest()), "");
 }
 
 TEST(ValveExperiments, TheExperimentsOwnInterlocksRefuseWithTheirReason) {
   ValveExperiments experiments{SweepLimits()};
   PlantCondition moving = atRest();
   moving.velocity = 0.2;
-  const std::string refusal = experiments.startSweep(sweep(), 0.0, moving);
+  const std::string refusal = experiments.startSweep(sweep(), Instant::simulated(0.0), moving);
   EXPECT_NE(refusal, "");
   EXPECT_EQ(experiments.running(), ValveExperiments::Kind::kNone);
   EXPECT_NE(experiments.lastRefusal().find(refusal), std::string::npos);
   StepTestRequest too_far = step(9.8);
   too_far.step = 0.5;  // 10.3 V: beyond sweep_max_voltage
-  EXPECT_NE(experiments.startStepTest(too_far, 0.0, atRest()).find("would leave"), std::string::npos);
+  EXPECT_NE(experiments.startStepTest(too_far, Instant::simulated(0.0), atRest()).find("would leave"),
+            std::string::npos);
 }
 
 TEST(ValveExperiments, AnAbortHandsTheValveBackOnceAndPausesTheFeedForwardUntilThen) {
   for (bool sweep_first : {true, false}) {
     ValveExperiments experiments{SweepLimits()};
     const double offset = sweep_first ? 0.1 : 0.2;
-    ASSERT_EQ(sweep_first ? experiments.startSweep(sweep(offset), 0.0, atRest())
-                          : experiments.startStepTest(step(offset), 0.0, atRest()),
+    ASSERT_EQ(sweep_first ? experiments.startSweep(sweep(offset), Instant::simulated(0.0), atRest())
+                          : experiments.startStepTest(step(offset), Instant::simulated(0.0), atRest()),
               "");
     ASSERT_TRUE(experiments.command(0.0005).has_value());
     const std::string aborted = experiments.abort("aborted by request");
@@ -72,7 +72,7 @@ TEST(ValveExperiments, AnAbortHandsTheValveBackOnceAndPausesTheFeedForwardUntilT
     EXPECT_TRUE(experiments.holdsValve()) << "the hand-back is still to be sent";
     EXPECT_NE(experiments.holder(), "");
     // Another experiment waits for the hand-back.
-    EXPECT_NE(experiments.startStepTest(step(), 0.001, atRest()), "");
+    EXPECT_NE(experiments.startStepTest(step(), Instant::simulated(0.001), atRest()), "");
     const auto back = experiments.command(0.001);
     ASSERT_TRUE(back.has_value());
     EXPECT_DOUBLE_EQ(*back, offset);
@@ -86,10 +86,10 @@ TEST(ValveExperiments, AnAbortHandsTheValveBackOnceAndPausesTheFeedForwardUntilT
 
 TEST(ValveExperiments, AnInterlockThatTripsHandsBackToo) {
   ValveExperiments experiments{SweepLimits()};
-  ASSERT_EQ(experiments.startStepTest(step(0.3), 0.0, atRest()), "");
+  ASSERT_EQ(experiments.startStepTest(step(0.3), Instant::simulated(0.0), atRest()), "");
   PlantCondition moving = atRest();
   moving.velocity = 0.1;
-  experiments.supervise(0.1, moving);
+  experiments.supervise(Instant::simulated(0.1), moving);
   EXPECT_EQ(experiments.running(), ValveExperiments::Kind::kNone);
   EXPECT_TRUE(experiments.holdsValve());
   EXPECT_DOUBLE_EQ(experiments.command(0.1).value_or(NAN), 0.3);
@@ -99,32 +99,17 @@ TEST(ValveExperiments, AnInterlockThatTripsHandsBackToo) {
 
 TEST(ValveExperiments, AFinishedStepTestEndsAtItsOffset) {
   ValveExperiments experiments{SweepLimits()};
-  ASSERT_EQ(experiments.startStepTest(step(0.2), 0.0, atRest()), "");
+  ASSERT_EQ(experiments.startStepTest(step(0.2), Instant::simulated(0.0), atRest()), "");
   std::optional<double> last;
   for (double t = 0.0; t < 3.0; t += 0.001) {
-    experiments.supervise(t, atRest());
+    experiments.supervise(Instant::simulated(t), atRest());
     if (const auto u = experiments.command(t)) last = u;
   }
   EXPECT_DOUBLE_EQ(last.value_or(NAN), 0.2);
   EXPECT_FALSE(experiments.holdsValve());
   EXPECT_EQ(experiments.lastEnd(), "step test finished");
-  EXPECT_EQ(experiments.startSweep(sweep(), 3.0, atRest()), "") << "the valve is free again";
-}
-
-TEST(ValveExperiments, TheDiagnosticNamesWhatRunsAndWhyAStartWasRefused) {
-  ValveExperiments experiments{SweepLimits()};
-  EXPECT_EQ(valveExperimentsHealth(experiments, true, 0.0).level, HealthLevel::kOk);
-  ASSERT_EQ(experiments.startStepTest(step(), 1.0, atRest()), "");
-  HealthReport report = valveExperimentsHealth(experiments, true, 1.0);
-  EXPECT_EQ(report.message, "a step test holds the valve");
-  EXPECT_NE(report.value("feed-forward").find("paused"), std::string::npos);
-  experiments.startSweep(sweep(), 1.5, atRest());
-  experiments.abort("done");
-  experiments.command(2.0);
-  report = valveExperimentsHealth(experiments, true, 2.0);
-  EXPECT_EQ(report.level, HealthLevel::kWarn) << "a refusal moments ago";
-  EXPECT_NE(report.message.find("valve sweep refused: a step test holds the valve"), std::string::npos);
-  EXPECT_EQ(valveExperimentsHealth(experiments, true, 100.0).level, HealthLevel::kOk) << "long ago";
+  EXPECT_EQ(experiments.startSweep(sweep(), Instant::simulated(3.0), atRest()), "")
+      << "the valve is free again";
 }
 
 // Random starts, aborts, plant conditions and ticks: never two experiments at once, every command within
@@ -149,16 +134,16 @@ TEST(ValveExperiments, PropertyNoSequenceRunsTwoOrLeavesTheLimits) {
       if (action < 0.003) {
         SweepRequest s = sweep(voltage(random));
         s.amplitude = 0.5 * unit(random) + 0.1;
-        sweeps += experiments.startSweep(s, t, plant).empty() ? 1 : 0;
+        sweeps += experiments.startSweep(s, Instant::simulated(t), plant).empty() ? 1 : 0;
       } else if (action < 0.006) {
         StepTestRequest r = step(voltage(random));
         r.step = voltage(random);
         r.duration = 0.2;
-        step_tests += experiments.startStepTest(r, t, plant).empty() ? 1 : 0;
+        step_tests += experiments.startStepTest(r, Instant::simulated(t), plant).empty() ? 1 : 0;
       } else if (action < 0.008) {
         experiments.abort("random abort");
       }
-      experiments.supervise(t, plant);
+      experiments.supervise(Instant::simulated(t), plant);
       ASSERT_FALSE(experiments.sweep().running() && experiments.stepTest().running())
           << "sequence " << sequence;
       const bool held = experiments.holdsValve();

@@ -1,10 +1,13 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <optional>
+#include <string>
 #include <utility>
 
 #include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/valve/instant.h"
 #include "die_cushion_ident/core/valve/servo_valve.h"
 
 namespace die_cushion_ident {
@@ -15,11 +18,17 @@ namespace die_cushion_ident {
 /// The volume balance asks for the valve flow  Q_v* = A v - Q_extra(p_ref) - C(p_ref, x) dp_ref/dt;
 /// the valve's static characteristic (the model's Q_v(y, p), with overlap and tank pressure when
 /// identified) is inverted for the spool opening y by bisection (monotonic in y), and y / K_valve is the
-/// voltage. The valve answers late (dead time plus 2 D / w0 of its 2nd-order part, leadTime()): the caller
-/// passes the trajectory as it will be that far ahead (a press program is known in advance; a live caller
-/// extrapolates). On the simulator that preview is what makes the difference: 0.2 bar drawing error with
-/// it, 2.6 bar without. The command never leaves [-max_voltage, max_voltage]; non-finite inputs give 0 V
-/// (nothing is added to the PI).
+/// voltage. Where the characteristic has a dead band (a valve overlap: no flow for |y| <= y_0) its exact
+/// inverse jumps across the band as the wanted flow changes sign, 2 y_0 / K at once (0.4 V at a 2 %
+/// overlap), and the inputs' noise made it chatter: inside a flow band as wide as the flow at an opening of
+/// one band width beyond the overlap, the opening is interpolated across the band instead (continuous,
+/// monotonic, through the band's middle at zero flow). The valve answers late (dead time plus 2 D / w0 of
+/// its 2nd-order part, leadTime()): the caller passes the trajectory as it will be that far ahead (a press
+/// program is known in advance; a live caller extrapolates). On the simulator that preview is what makes
+/// the difference: 0.2 bar drawing error with it, 2.6 bar without. The command never leaves
+/// [-max_voltage, max_voltage]; the position is taken within the stroke; a chamber whose compliance
+/// (capacitance plus every dp/dt term of the outflow) is not positive at the operating point gives no
+/// command (a negative one would reverse the set-point-rate term: positive feedback).
 class PressureFeedForward {
  public:
   /// `model` must outlive this object (it is not copied: a custom effect's copy costs a probe of its
@@ -31,16 +40,21 @@ class PressureFeedForward {
   /// New identified parameters (same model); throws std::invalid_argument as the constructor.
   void setParameters(const ParameterVector& physical);
 
-  /// Spool opening [-] (in [-1, 1]) that makes the model's pressure rate equal dp_ref at p_ref.
-  double spoolOpening(double p_ref, double dp_ref, double x, double v) const;
+  /// Spool opening [-] (in [-1, 1]) that makes the model's pressure rate equal dp_ref at p_ref (within the
+  /// dead band's interpolation), x taken within the stroke; NaN (and `refusal`, if given) where the inputs
+  /// are not finite or the chamber's compliance there is not positive.
+  double spoolOpening(double p_ref, double dp_ref, double x, double v, std::string* refusal = nullptr) const;
   /// The feed-forward voltage [V] for a reference pressure [Pa] and its rate [Pa/s] at position x [m],
-  /// velocity v [m/s], all taken leadTime() ahead; false in `valid` (may be null) when an input was not
-  /// finite.
-  double command(double p_ref, double dp_ref, double x, double v, bool* valid = nullptr) const;
+  /// velocity v [m/s], all taken leadTime() ahead; NaN, with the reason in `refusal` (may be null), where
+  /// spoolOpening gives none.
+  double command(double p_ref, double dp_ref, double x, double v, std::string* refusal = nullptr) const;
   /// [s] how far ahead the trajectory should be taken: the valve's dead time plus 2 D / w0.
   double leadTime() const { return lead_; }
 
  private:
+  /// The wanted valve flow's inverse over the characteristic at `s` (s.y is set on the way).
+  double invert(double wanted, HydraulicSignals& s) const;
+
   const HydraulicModel& model_;
   ParameterVector physical_;
   double valve_gain_;
@@ -48,22 +62,40 @@ class PressureFeedForward {
   double lead_;
 };
 
-/// The pressure set-point as a cell controller streams it: the newest value and its rate from the last two
-/// samples, extrapolated to the time the valve will answer. NaN values and stamps that do not advance are
-/// refused and counted; a reference older than the allowed age is not used.
+/// What the feed-forward accepts of the cell controller's set-point stream.
+struct SetpointLimits {
+  double max_age = 0.05;  ///< [s] older than this (stamp against the clock, arrival on steady time): stale
+  double max_clock_offset = 0.1;  ///< [s] a stamp further ahead of the clock is not trusted
+  double rate_window = 0.02;      ///< [s] the rate is the least-squares slope of the set-points this far back
+  double max_rate = 2e9;          ///< [Pa/s] the rate is never taken beyond this
+};
+
+/// The pressure set-point as a cell controller streams it: the newest value and its rate, the slope over a
+/// window of the recent set-points (two set-points 10 us apart gave a rate near 1e9 Pa/s and drove the
+/// output to its limit), bounded, extrapolated to the time the valve will answer. NaN values and stamps that
+/// do not advance are refused and counted; a stamp more than a second behind the newest restarts it (a
+/// bag played again). A set-point is used only while its stamp is neither older than max_age nor further
+/// than max_clock_offset ahead of the clock, and it arrived within max_age of steady time.
 class PressureReference {
  public:
-  enum class Push { kAccepted, kNonFinite, kNotAdvancing };
-  Push push(double stamp, double pressure);
-  /// {pressure, rate} at `now + ahead` [Pa, Pa/s], or nothing when no sample is fresher than `max_age` at
-  /// `now`.
-  std::optional<std::pair<double, double>> at(double now, double ahead, double max_age) const;
-  bool received() const { return count_ > 0; }
-  double newestStamp() const { return t1_; }
+  enum class Push { kAccepted, kNonFinite, kNotAdvancing, kRestarted };
+
+  explicit PressureReference(const SetpointLimits& limits = {}) : limits_(limits) {}
+  Push push(double stamp, double pressure, double arrival_steady);
+  /// {pressure, rate} at `now.clock + ahead` [Pa, Pa/s], or nothing (the reason in `why`, if given).
+  std::optional<std::pair<double, double>> at(Instant now, double ahead, std::string* why = nullptr) const;
+  bool received() const { return !samples_.empty() || count_ > 0; }
+  double newestStamp() const { return samples_.empty() ? -1e18 : samples_.back().first; }
   std::uint64_t rejected() const { return rejected_; }
+  const SetpointLimits& limits() const { return limits_; }
 
  private:
-  double t0_ = 0.0, p0_ = 0.0, t1_ = -1e18, p1_ = 0.0;
+  /// [Pa/s] the least-squares slope over the window (0 where the set-points span too little time).
+  double rate() const;
+
+  SetpointLimits limits_;
+  std::deque<std::pair<double, double>> samples_;  // (stamp, pressure), newest last, at most kKept
+  double arrival_ = -1e18;
   std::uint64_t count_ = 0, rejected_ = 0;
 };
 

@@ -5,10 +5,11 @@
 #include <optional>
 #include <string>
 
+#include "die_cushion_ident/core/control/valve_supervisor.h"
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
+#include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/monitoring/health_report.h"
 #include "die_cushion_ident/core/monitoring/live_model_monitor.h"
-#include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 #include "die_cushion_ident/core/valve/valve_experiments.h"
@@ -33,14 +34,14 @@ constexpr double kImplausibleSigmas = 3.0;
 /// What the node knows of one input topic.
 struct InputState {
   InputStream stream = InputStream::kPressure;
-  std::string topic;             ///< resolved name
-  StreamHealth health;           ///< the resampler's statistics
-  double now = 0.0;              ///< [s] ROS time
-  std::uint64_t rejected = 0;    ///< messages the node or the resampler did not use
-  std::string last_rejection;    ///< why the last one was not used
-  bool new_wild_stamps = false;  ///< wild stamps since the last report
+  std::string topic;                   ///< resolved name
+  StreamHealth health;                 ///< the resampler's statistics
+  double now = 0.0;                    ///< [s] ROS time
+  std::uint64_t rejected = 0;          ///< messages the node or the resampler did not use
+  std::string last_rejection;          ///< why the last one was not used
+  bool new_wild_stamps = false;        ///< wild stamps since the last report
   double all_inputs_silent_for = 0.0;  ///< [s] since the newest message of any input
-  double spool_age = 1e18;       ///< [s] since the last finite spool position (valve topic only)
+  double spool_age = 1e18;             ///< [s] since the last finite spool position (valve topic only)
 };
 
 /// [s] of ROS time since the newest message of any input; infinite before the first.
@@ -59,9 +60,14 @@ HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& mo
 
 /// [s] how long a refused valve experiment keeps the experiments' diagnostic at WARN.
 constexpr double kRecentRefusal = 30.0;
-/// Which valve experiment holds the valve (and so pauses the feed-forward), the last refusal and why, and
-/// how the last one ended; WARN for kRecentRefusal after a refusal.
-HealthReport valveExperimentsHealth(const ValveExperiments& experiments, bool feed_forward_engaged, double now);
+/// Which output holds the valve (an experiment, the feed-forward), the supervision's view of the inputs and
+/// the clock, the last refusal and why, how the last experiment ended, and the last fault the supervisor
+/// acted on with the time the valve took to its safe value; WARN for kRecentRefusal after a refusal and
+/// while the clock or an input cannot be trusted during an experiment.
+HealthReport valveExperimentsHealth(const ValveSupervisor& supervisor, Instant now);
+/// What the feed-forward sends and why, the supervisor's limits on it; WARN while it is blocked with a
+/// set-point streaming.
+HealthReport feedForwardOutputHealth(const ValveSupervisor& supervisor);
 
 /// The free-run error overall and per stroke phase against the warn / error limits [Pa], the live ranking's
 /// conclusion, and why nothing is compared yet when nothing is.
@@ -73,8 +79,8 @@ struct TimingState {
   std::array<double, kInputStreamCount> applied_delays{};  ///< [s]
   std::string joint_name;                                  ///< configured; "" = default
   std::uint64_t derived_velocity_samples = 0;
-  double velocity_delay = 0.0;       ///< [s] latency of the velocity stage
-  std::string joint_ambiguity;       ///< "" unless the joint could not be told apart
+  double velocity_delay = 0.0;  ///< [s] latency of the velocity stage
+  std::string joint_ambiguity;  ///< "" unless the joint could not be told apart
   bool delays_configured = false;
   std::optional<TopicDelayEstimate> estimate;
   std::uint64_t time_base_restarts = 0;  ///< the stamps jumped back and the identification restarted
@@ -89,7 +95,7 @@ HealthReport timingHealth(const TimingState& timing);
 
 /// The last step test: t63 and the sampling it allows; WARN when sample_period exceeds 0.1 t63 or the test
 /// failed.
-HealthReport stepTestHealth(const std::optional<StepResponse>& response, const std::string& status, bool failed,
-                            double sample_period);
+HealthReport stepTestHealth(const std::optional<StepResponse>& response, const std::string& status,
+                            bool failed, double sample_period);
 
 }  // namespace die_cushion_ident

@@ -24,16 +24,16 @@ class ValveExperiments {
   void setCommandHold(double seconds) { sweep_.setCommandHold(seconds); }
 
   /// Empty when started, else why not (another experiment running, or the experiment's own interlocks).
-  std::string startSweep(const SweepRequest& request, double now, const PlantCondition& plant);
-  std::string startStepTest(const StepTestRequest& request, double now, const PlantCondition& plant);
+  std::string startSweep(const SweepRequest& request, Instant now, const PlantCondition& plant);
+  std::string startStepTest(const StepTestRequest& request, Instant now, const PlantCondition& plant);
   /// Aborts whichever runs, its command back to its offset; what was aborted, in words ("" when nothing).
   std::string abort(const std::string& reason);
 
-  /// The interlocks of whichever runs, on the plant's condition now.
-  void supervise(double now, const PlantCondition& plant);
-  /// The command to send now: the running experiment's, or its offset once after it ended or was aborted;
-  /// nothing when no experiment holds the valve.
-  std::optional<double> command(double now);
+  /// The interlocks and the duration limit of whichever runs, on the plant's condition now.
+  void supervise(Instant now, const PlantCondition& plant);
+  /// The command to send at `clock` [s]: the running experiment's, or its offset once after it ended or was
+  /// aborted; nothing when no experiment holds the valve.
+  std::optional<double> command(double clock);
   /// A valve message, for the sweep's correlation.
   void addValveSample(double t, double voltage, double spool);
 
@@ -45,16 +45,17 @@ class ValveExperiments {
 
   const ValveSweep& sweep() const { return sweep_; }
   const ValveStepTest& stepTest() const { return step_test_; }
-  /// The last refused start: what was asked, why it was refused, and when [s] (NaN: none yet).
+  /// The last refused start: what was asked, why it was refused, and when [s, steady] (NaN: none yet).
   const std::string& lastRefusal() const { return last_refusal_; }
   double lastRefusalTime() const { return last_refusal_time_; }
   /// What ended last ("valve sweep finished", "step test aborted: ...").
   const std::string& lastEnd() const { return last_end_; }
+  /// Keeps a refusal decided outside (another output holds the valve) as lastRefusal(); returns `reason`.
+  std::string refuse(Kind kind, const std::string& reason, Instant now);
 
  private:
   /// The experiment that runs or still owes its offset (each keeps that itself).
   Kind holding() const;
-  std::string refuse(Kind kind, const std::string& reason, double now);
   /// Notes how `before`, running before an operation, ended if it no longer runs.
   void noteEndOf(Kind before);
 

@@ -17,10 +17,12 @@ struct StepTestRequest {
 };
 
 /// Runs a valve command step on a cushion at rest as safely as a sweep (same SweepLimits): refused while
-/// the cushion moves, without a fresh pressure or above sweep_max_pressure, or when offset and offset +
-/// step leave [sweep_min_voltage, sweep_max_voltage] or the step exceeds sweep_max_amplitude; aborted when
-/// the cushion starts moving, the pressure goes stale or exceeds step_max_pressure. Ended or aborted, the
-/// command returns to the offset. The pressure's answer is timed by findStepResponses on the recording.
+/// the cushion moves, without a fresh pressure, position and valve message or above sweep_max_pressure, or
+/// when offset and offset + step leave [sweep_min_voltage, sweep_max_voltage] or the step exceeds
+/// sweep_max_amplitude; aborted when the cushion starts moving, an input is lost or off the clock, the
+/// pressure exceeds step_max_pressure, a spool measured before is no longer, or the test runs beyond its
+/// duration. Ended or aborted, the command returns to the offset. The pressure's answer is timed by
+/// findStepResponses on the recording.
 class ValveStepTest {
  public:
   enum class State { kIdle, kRunning, kFinished, kAborted };
@@ -28,8 +30,8 @@ class ValveStepTest {
   explicit ValveStepTest(const SweepLimits& limits) : limits_(limits) {}
 
   /// Empty when started, else the reason it was refused.
-  std::string start(StepTestRequest request, double now, const PlantCondition& plant);
-  void supervise(double now, const PlantCondition& plant);
+  std::string start(StepTestRequest request, Instant now, const PlantCondition& plant);
+  void supervise(Instant now, const PlantCondition& plant);
   void abort(const std::string& reason);
   /// The command to apply now while the test runs (and the offset once after it ended); nothing when idle.
   std::optional<double> command(double now);
@@ -46,7 +48,11 @@ class ValveStepTest {
   SweepLimits limits_;
   StepTestRequest request_;
   State state_ = State::kIdle;
-  double start_time_ = 0.0, step_time_ = 0.0;
+  /// Why the valve's amplifier cannot be trusted to apply the command ("" when it can).
+  std::string amplifierLostReason(const PlantCondition& plant) const;
+
+  Instant started_;
+  double step_time_ = 0.0;
   bool offset_pending_ = false;  // the offset still has to be sent after the end
   std::string abort_reason_;
 };

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "die_cushion_ident/core/valve/frequency_response.h"
+#include "die_cushion_ident/core/valve/instant.h"
 #include "die_cushion_ident/core/valve/servo_valve_fit.h"
 
 namespace die_cushion_ident {
@@ -35,10 +36,16 @@ struct SweepLimits {
   double max_voltage = 10.0;         ///< [V]
   double max_pressure = 80e5;        ///< [Pa] a sweep starts and continues only below
   double max_rest_velocity = 0.005;  ///< [m/s] the cushion counts as at rest below
-  double signal_timeout = 0.05;      ///< [s] spool or pressure older than this aborts (stale signal)
-  double command_period = 0.001;     ///< [s] valve command rate (paper: 1 ms)
-  double max_duration = 300.0;       ///< [s] longest sweep accepted
-  double max_distortion = 0.02;      ///< harmonic distortion that flags a point (spool-velocity saturation)
+  /// [s] steady time since an input's last message arrived beyond which it counts as lost: a valve test
+  /// aborts and the feed-forward ramps out (the supervision of every output that drives the valve)
+  double signal_timeout = 0.05;
+  /// [s] an input stamped further than this ahead of or behind the clock it arrives on is not trusted
+  /// (drive clocks off the node's, a stopped /clock): no valve test starts or goes on, the feed-forward
+  /// ramps out
+  double max_clock_offset = 0.1;
+  double command_period = 0.001;  ///< [s] valve command rate (paper: 1 ms)
+  double max_duration = 300.0;    ///< [s] longest sweep accepted
+  double max_distortion = 0.02;   ///< harmonic distortion that flags a point (spool-velocity saturation)
   /// [Pa] a step test aborts above (a step that opens the supply edge raises the pressure towards the
   /// supply: the sweep's bound applies to its start only)
   double step_max_pressure = 250e5;
@@ -56,21 +63,32 @@ double sweepLimitValue(const SweepLimits& limits, const std::string& key);
 /// Why a request is not acceptable under the limits ("" when it is).
 std::string checkSweepRequest(const SweepRequest& request, const SweepLimits& limits);
 
-/// The cushion's state as the safety logic sees it. NaN = unknown; ages are now - stamp of the last sample.
+/// The cushion's state as the safety logic sees it (PlantSignals). NaN = unknown. The ages are steady time
+/// [s] since the signal's last message *arrived*: a dead bus ages every signal whatever the messages' stamps
+/// said; infinite for a signal never received.
 struct PlantCondition {
   double pressure = std::numeric_limits<double>::quiet_NaN();  ///< [Pa]
   double velocity = std::numeric_limits<double>::quiet_NaN();  ///< [m/s]
   double pressure_age = std::numeric_limits<double>::infinity();
-  double spool_age = std::numeric_limits<double>::infinity();
+  double position_age = std::numeric_limits<double>::infinity();  ///< the velocity's age
+  double valve_age = std::numeric_limits<double>::infinity();     ///< any valve message (the amplifier alive)
+  double spool_age = std::numeric_limits<double>::infinity();     ///< a valve message with a measured spool
+  /// Why the inputs' stamps cannot be trusted against the clock (a topic stamped beyond
+  /// sweep_max_clock_offset ahead of or behind it); empty when they agree.
+  std::string clock_problem;
 };
 
 /// Why a valve test (`tests`: "sweeps", "step tests") may not start now: the pressure unknown, stale or
 /// above sweep_max_pressure, or the cushion not known to be at rest; empty when it may.
 std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits, const std::string& tests);
-/// Why a running valve test must stop: the pressure stale or above `max_pressure` (named `bound`), or the
-/// cushion moving; empty while it may go on.
+/// Why a running valve test must stop: an input lost or off the clock, the pressure above `max_pressure`
+/// (named `bound`), or the cushion moving or its velocity unknown; empty while it may go on.
 std::string restLostReason(const PlantCondition& plant, const SweepLimits& limits, double max_pressure,
                            const std::string& bound);
+/// Why a valve test started at `started` must stop at `now` ("" while it may run): longer than
+/// `max_duration` on the steady clock, or on the clock than twice its `expected` duration plus 5 s (a
+/// sweep that stopped advancing), or than `max_duration`.
+std::string durationExceeded(Instant started, Instant now, double expected, double max_duration);
 
 /// Runs a sine sweep on the valve safely and measures its frequency response point by point.
 ///
@@ -78,8 +96,9 @@ std::string restLostReason(const PlantCondition& plant, const SweepLimits& limit
 /// (addValveSample: the voltage in force from the stamp on, and the measured spool) and applies command().
 /// Per frequency the sine starts at phase 0; after the settle time, whole periods of command echo and spool
 /// are correlated; the next frequency starts once a sample past the window has arrived. On completion the
-/// 2nd-order model with dead time is fitted. Any abort (request, stale or non-finite spool, stale pressure,
-/// pressure over the limit, shutdown) ends the sweep and the next command is the offset.
+/// 2nd-order model with dead time is fitted. Any abort (request, a lost or non-finite spool, a lost pressure
+/// or position, stamps off the clock, pressure over the limit, a sweep beyond its duration, shutdown) ends
+/// the sweep and the next command is the offset.
 class ValveSweep {
  public:
   enum class State { kIdle, kRunning, kFinished, kAborted };
@@ -87,9 +106,10 @@ class ValveSweep {
   explicit ValveSweep(const SweepLimits& limits);
 
   /// Starts if the request is valid and the plant is safe; otherwise returns the reason and stays put.
-  std::string start(const SweepRequest& request, double now, const PlantCondition& plant);
-  /// Checks the running sweep's safety conditions; aborts with a reason when one is violated.
-  void supervise(double now, const PlantCondition& plant);
+  std::string start(const SweepRequest& request, Instant now, const PlantCondition& plant);
+  /// Checks the running sweep's safety conditions and its duration; aborts with a reason when one is
+  /// violated.
+  void supervise(Instant now, const PlantCondition& plant);
   void addValveSample(double t, double voltage, double spool);
   /// The command to apply at `now` while running; after the sweep ends, the offset exactly once (so the
   /// valve returns to it); otherwise nothing.
@@ -123,6 +143,7 @@ class ValveSweep {
 
   SweepLimits limits_;
   SweepRequest request_;
+  Instant started_;
   State state_ = State::kIdle;
   std::string abort_reason_;
   int index_ = 0;
