@@ -2,86 +2,54 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 
-#include "die_cushion_ident/ValveSignal.h"
+#include "diagnostic_fill.h"
+#include "die_cushion_ident/core/monitoring/live_diagnostics.h"
 
 namespace die_cushion_ident {
 
 namespace {
-FeedForwardInterlockLimits interlockLimits(double limit, double slew_rate, double parameter_rate) {
-  FeedForwardInterlockLimits l;
-  l.max_voltage = limit > 0.0 ? limit : 1e-9;  // a range that excludes 0 V on one side allows nothing
-  l.slew_rate = slew_rate;
-  l.parameter_rate = parameter_rate;
-  return l;
+bool sameValve(const ServoValveParameters& a, const ServoValveParameters& b) {
+  return a.gain == b.gain && a.dead_time == b.dead_time && a.natural_frequency == b.natural_frequency &&
+         a.damping == b.damping;
 }
 }  // namespace
 
-FeedForwardPublisher::FeedForwardPublisher(ros::NodeHandle nh, ros::NodeHandle pnh, double valve_gain,
-                                           double max_age, double min_voltage, double max_voltage,
-                                           double slew_rate, double parameter_rate)
-    : configured_gain_(valve_gain),
-      max_age_(max_age),
-      // Symmetric for the inverse, inside the requested range on both sides.
-      limit_(std::max(0.0, std::min(-min_voltage, max_voltage))),
-      interlock_(interlockLimits(limit_, slew_rate, parameter_rate), valve_gain) {
+FeedForwardPublisher::FeedForwardPublisher(ros::NodeHandle nh, ros::NodeHandle pnh, const Settings& settings,
+                                           SupervisedValve& valve)
+    : settings_(settings),
+      valve_(valve),
+      reference_(settings.setpoint),
+      interlock_(settings.interlock, settings.valve_gain) {
   sub_ = nh.subscribe("pressure_setpoint", 100, &FeedForwardPublisher::onSetpoint, this);
-  pub_ = pnh.advertise<ValveSignal>("feed_forward", 10);
+  enable_srv_ = pnh.advertiseService("enable_feed_forward", &FeedForwardPublisher::enable, this);
 }
 
 void FeedForwardPublisher::onSetpoint(const sensor_msgs::FluidPressure::ConstPtr& msg) {
+  const double arrival = SupervisedValve::now().steady;
   std::lock_guard<std::mutex> lock(mutex_);
-  reference_.push(msg->header.stamp.toSec(), msg->fluid_pressure);
+  reference_.push(msg->header.stamp.toSec(), msg->fluid_pressure, arrival);
+}
+
+bool FeedForwardPublisher::enable(SetFeedForward::Request& req, SetFeedForward::Response& res) {
+  res.message = valve_.locked(
+      [&](ValveSupervisor& s) { return s.enableFeedForward(req.enable, SupervisedValve::now()); });
+  res.success = true;
+  ROS_INFO("die_cushion_ident: %s", res.message.c_str());
+  return true;
 }
 
 void FeedForwardPublisher::modelChanged() {
+  std::lock_guard<std::mutex> lock(mutex_);
   feed_forward_.reset();
-  model_ = nullptr;
-  interlock_.restart();
-}
-
-void FeedForwardPublisher::publish(double stamp, double voltage) {
-  ValveSignal msg;
-  msg.header.stamp = ros::Time(std::max(stamp, 0.0));
-  msg.voltage = voltage;
-  msg.spool_position = std::numeric_limits<double>::quiet_NaN();
-  pub_.publish(msg);
-  last_voltage_ = voltage;
-  ++published_;
-}
-
-std::string FeedForwardPublisher::waitingFor(bool model_ready, const ServoValveParameters* valve,
-                                             const std::string& experiment) const {
-  if (!reference_.received()) return "no pressure_setpoint received yet";
-  if (!experiment.empty()) return experiment + " owns the valve: the feed-forward waits until it ends";
-  if (!model_ready) return "the estimator has not identified the model yet (the press must stroke)";
-  if (!valve && !std::isfinite(configured_gain_)) {
-    return "the valve gain is unknown: run a sweep (~start_sweep) or set ~valve_gain";
-  }
-  return "";
-}
-
-ServoValveParameters FeedForwardPublisher::wantedValve(const ServoValveParameters* valve) const {
-  if (valve) return *valve;
-  ServoValveParameters wanted;
-  wanted.gain = configured_gain_;
-  wanted.dead_time = 0.0;  // no lag known: no lead
-  wanted.natural_frequency = std::numeric_limits<double>::infinity();
-  return wanted;
 }
 
 std::string FeedForwardPublisher::followParameters(const HydraulicModel& model, const ParameterVector& used,
-                                                   const ServoValveParameters& wanted,
-                                                   bool valve_identified) {
+                                                   const ServoValveParameters& valve) {
   try {
-    if (!feed_forward_ || model_ != &model || valve_identified_ != valve_identified ||
-        wanted.gain != valve_used_.gain || wanted.dead_time != valve_used_.dead_time ||
-        wanted.natural_frequency != valve_used_.natural_frequency || wanted.damping != valve_used_.damping) {
-      feed_forward_ = std::make_unique<PressureFeedForward>(model, used, wanted, limit_);
-      model_ = &model;
-      valve_used_ = wanted;
-      valve_identified_ = valve_identified;
+    if (!feed_forward_ || !sameValve(valve, valve_used_)) {
+      feed_forward_ = std::make_unique<PressureFeedForward>(model, used, valve, settings_.max_voltage);
+      valve_used_ = valve;
     } else {
       feed_forward_->setParameters(used);
     }
@@ -92,73 +60,96 @@ std::string FeedForwardPublisher::followParameters(const HydraulicModel& model, 
   return "";
 }
 
-void FeedForwardPublisher::update(const GridSample& g, const HydraulicModel& model, const ParameterVector& physical,
-                                  bool model_ready, const ServoValveParameters* valve, const std::string& experiment) {
-  std::lock_guard<std::mutex> lock(mutex_);
+double FeedForwardPublisher::wanted(const GridSample& g, const LiveIdentification& live,
+                                    const ServoValveParameters* swept, std::string* why) {
+  const auto none = [&](const std::string& reason) {
+    *why = reason;
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  const double steady = SupervisedValve::now().steady;
   const double dt = std::isfinite(last_t_) && g.t > last_t_ ? g.t - last_t_ : 0.0;
+  const double follow_dt = std::isfinite(last_steady_) ? steady - last_steady_ : 0.0;
   // The velocity previewed over the valve's lag with the acceleration of the last grid step (bounded: a
   // derived velocity's step at impact is not extrapolated into a spike).
-  const double acceleration =
-      dt > 0.0 && std::isfinite(last_v_) && std::isfinite(g.v) ? std::clamp((g.v - last_v_) / dt, -50.0, 50.0) : 0.0;
+  const double acceleration = dt > 0.0 && std::isfinite(last_v_) && std::isfinite(g.v)
+                                  ? std::clamp((g.v - last_v_) / dt, -50.0, 50.0)
+                                  : 0.0;
   last_t_ = g.t;
   last_v_ = g.v;
-  const auto stop = [&](const std::string& why) {
-    blocker_ = why;
-    // Ramped to 0 V (bumpless), then silent.
-    if (!withdrawn_) publish(g.t, interlock_.output(NAN, dt));
-    withdrawn_ = interlock_.lastOutput() == 0.0;
-  };
-  if (const std::string waiting = waitingFor(model_ready, valve, experiment); !waiting.empty())
-    return stop(waiting);
-  const ServoValveParameters wanted = wantedValve(valve);
-  const std::string refusal = interlock_.check(physical, wanted.gain);
-  if (!refusal.empty()) {
+  last_steady_ = steady;
+  if (swept && (!offered_ || !sameValve(*swept, *offered_))) {
+    offered_ = *swept;
+    std::string refusal;
+    if (!interlock_.offerSweptValve(*swept, &refusal)) {
+      ++refused_valves_;
+      last_refusal_ = "the sweep's valve model is refused (the last accepted stays in use): " + refusal;
+      ROS_WARN("die_cushion_ident: feed-forward: %s", last_refusal_.c_str());
+    }
+  }
+  if (!reference_.received()) return none("no pressure_setpoint received yet");
+  if (!live.monitor().estimatorStarted()) {
+    return none("the estimator has not identified the model yet (the press must stroke)");
+  }
+  const std::optional<ServoValveParameters> valve = interlock_.valve();
+  if (!valve) return none("the valve gain is unknown: run a sweep (~start_sweep) or set ~valve_gain");
+  const HydraulicModel& model = live.pipeline().identifier().model();
+  const HydraulicEstimate estimate = live.estimate();
+  ParameterVector inside;
+  if (const std::string refusal =
+          interlock_.checkParameters(model, estimate.values(), estimate.standardDeviations(), &inside);
+      !refusal.empty()) {
     ++refused_parameters_;
-    return stop("the identified parameters are refused: " + refusal);
+    last_refusal_ = "the identified parameters are refused: " + refusal;
+    return none(last_refusal_);
   }
-  interlock_.acceptValveGain(wanted.gain);
-  const ParameterVector& used = interlock_.follow(physical, dt);
-  if (const std::string unusable = followParameters(model, used, wanted, valve != nullptr);
-      !unusable.empty()) {
-    return stop(unusable);
-  }
-  const auto reference = reference_.at(g.t, feed_forward_->leadTime(), max_age_);
-  if (!reference) {
-    char text[160];
-    std::snprintf(text, sizeof(text), "pressure_setpoint is stale (newest %.3f s old, allowed %.3f s)",
-                  g.t - reference_.newestStamp(), max_age_);
-    return stop(text);
-  }
-  bool valid = false;
+  const ParameterVector& used = interlock_.follow(model, inside, follow_dt);
+  if (const std::string unusable = followParameters(model, used, *valve); !unusable.empty())
+    return none(unusable);
   const double lead = feed_forward_->leadTime();
-  const double v_ahead = g.v + lead * acceleration;
-  const double u =
-      feed_forward_->command(reference->first, reference->second,
-                             g.x + lead * g.v + 0.5 * lead * lead * acceleration, v_ahead, &valid);
-  if (!valid) return stop("the cushion's position or velocity is not known");
-  blocker_.clear();
-  withdrawn_ = false;
-  publish(g.t, interlock_.output(u, dt));
+  std::string stale;
+  const auto reference = reference_.at(SupervisedValve::now(), lead, &stale);
+  if (!reference) return none(stale);
+  std::string refusal;
+  const double u = feed_forward_->command(reference->first, reference->second,
+                                          g.x + lead * g.v + 0.5 * lead * lead * acceleration,
+                                          g.v + lead * acceleration, &refusal);
+  if (!std::isfinite(u)) return none(refusal);
+  return u;
+}
+
+void FeedForwardPublisher::update(const GridSample& g, const LiveIdentification& live,
+                                  const ServoValveParameters* swept) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string why;
+  const double u = wanted(g, live, swept, &why);
+  valve_.feedForward(u, why);
 }
 
 void FeedForwardPublisher::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) const {
   std::lock_guard<std::mutex> lock(mutex_);
   using diagnostic_msgs::DiagnosticStatus;
+  const HealthReport output =
+      valve_.locked([](const ValveSupervisor& s) { return feedForwardOutputHealth(s); });
+  const std::string state = output.value("output");
   if (!reference_.received()) {
     status.summary(DiagnosticStatus::OK, "off: no pressure_setpoint received");
-  } else if (!blocker_.empty()) {
-    status.summary(DiagnosticStatus::WARN, "0 V: " + blocker_);
+  } else if (output.value("switched") != "on") {
+    status.summary(DiagnosticStatus::OK, state);
+  } else if (state.rfind("0 V:", 0) == 0 || state.rfind("ramping out", 0) == 0) {
+    status.summary(DiagnosticStatus::WARN, state);
   } else {
-    status.summary(DiagnosticStatus::OK, "publishing the identified model's feed-forward");
+    status.summary(DiagnosticStatus::OK, state);
   }
-  status.add("last voltage [V]", last_voltage_);
-  status.add("messages published", published_);
+  for (const auto& [key, value] : output.values) status.add(key, value);
   status.add("set-points refused (NaN or stamp not advancing)", reference_.rejected());
-  status.add("valve model", valve_identified_ ? "identified by a sweep" : "~valve_gain, no lag");
-  status.add("command limit [V]", limit_);
-  status.add("slew-rate limit [V/s]", interlock_.limits().slew_rate);
+  status.add("valve model", interlock_.valveFromSweep() ? "identified by a sweep"
+                            : interlock_.valve()        ? "~valve_gain, no lag"
+                                                        : "none");
+  status.add("command limit [V]", settings_.max_voltage);
   status.add("parameter rate limit [1/s]", interlock_.limits().parameter_rate);
-  status.add("estimates refused (sign, valve gain band)", refused_parameters_);
+  status.add("estimates refused (range, sign)", refused_parameters_);
+  status.add("sweeps refused (valve gain band, sanity)", refused_valves_);
+  status.add("last refusal", last_refusal_.empty() ? std::string("none") : last_refusal_);
 }
 
 }  // namespace die_cushion_ident

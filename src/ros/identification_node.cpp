@@ -14,9 +14,13 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   const auto problems = loadParameters(pnh_, &config, &limits_, &settings_);
   if (!problems.empty()) throw std::invalid_argument("invalid parameters:\n  " + joined(problems, "\n  "));
   joints_ = JointSelector(settings_.joint_name);
-  feed_forward_ = std::make_unique<FeedForwardPublisher>(
-      nh_, pnh_, settings_.valve_gain, settings_.feed_forward_max_age, limits_.min_voltage,
-      limits_.max_voltage, settings_.feed_forward_slew_rate, settings_.feed_forward_parameter_rate);
+  valve_ = std::make_unique<SupervisedValve>(nh_, pnh_, limits_, feedForwardOutputLimits(settings_, limits_),
+                                             config.valve_command_hold);
+  if (!settings_.feed_forward_enabled) {
+    valve_->locked([](ValveSupervisor& v) { return v.enableFeedForward(false, SupervisedValve::now()); });
+  }
+  feed_forward_ =
+      std::make_unique<FeedForwardPublisher>(nh_, pnh_, feedForwardSettings(settings_, limits_), *valve_);
   live_ = std::make_unique<LiveIdentification>(config, liveIdentificationSettings(settings_, pnh_));
   live_->setCallbacks(
       [this](const GridSample& g, const HydraulicIdentifier& identifier,
@@ -24,9 +28,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
       [this](const HydraulicIdentifier& identifier) { publishers_->identificationStep(*live_, identifier); });
   generation_ = live_->generation();
   publishers_ = std::make_unique<LivePublishers>(pnh_);
-  experiments_ =
-      std::make_unique<ValveExperimentServices>(nh_, pnh_, limits_, config.valve_command_hold, mutex_, *live_,
-                                                signals_, [this] { return feed_forward_->engaged(); });
+  experiments_ = std::make_unique<ValveExperimentServices>(pnh_, mutex_, *live_, *valve_);
   addDiagnostics();
 
   // The estimates run on stamps, so pressure and position may arrive batched (Nagle: fewer wake-ups and
@@ -45,18 +47,12 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
                   << nh_.resolveName("valve"));
 }
 
-bool IdentificationNode::valveExperimentRunning() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  // A step test's interlocks are as time-critical as a sweep's: both want the fine spin.
-  return experiments_->holdsValve();
-}
-
 // ---- inputs ----
 
 void IdentificationNode::onPressure(const sensor_msgs::FluidPressure::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   const double stamp = msg->header.stamp.toSec();
-  signals_.pressure(stamp, msg->fluid_pressure);
+  valve_->pressure(stamp, msg->fluid_pressure);
   push(InputStream::kPressure, {stamp, msg->fluid_pressure, NAN});  // no second value
 }
 
@@ -71,16 +67,16 @@ void IdentificationNode::onPosition(const sensor_msgs::JointState::ConstPtr& msg
     ambiguity_reported_ = true;
     ROS_WARN("die_cushion_ident: %s", joints_.ambiguity().c_str());
   }
-  signals_.position(sample.stamp, sample.first);
+  valve_->position(sample.stamp, sample.first);
   push(InputStream::kPosition, sample);
 }
 
 void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   const double stamp = msg->header.stamp.toSec();
-  signals_.spool(stamp, msg->spool_position);
+  valve_->valve(stamp, msg->voltage, msg->spool_position);
   push(InputStream::kValve, {stamp, msg->voltage, msg->spool_position});
-  experiments_->onValveMessage(stamp, msg->voltage, msg->spool_position);
+  experiments_->poll();
 }
 
 void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
@@ -112,15 +108,14 @@ void IdentificationNode::reject(InputStream stream, const std::string& why) {
   ROS_WARN_THROTTLE(5.0, "die_cushion_ident: %s message rejected: %s", inputStreamName(stream), why.c_str());
 }
 
-void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& identifier,
+void IdentificationNode::onGridSample(const GridSample& g, const HydraulicIdentifier& /*live_'s own*/,
                                       const std::optional<LiveRanking>& ranking) {
   if (ranking) publishers_->ranking(*ranking, live_->monitor().lastSample().t);
+  experiments_->poll();
   experiments_->onGridSample(g.t);
-  // The feed-forward pauses while an experiment holds the valve (its command would add to the experiment's
-  // on the cell controller's adder).
-  feed_forward_->update(g, identifier.model(), identifier.physicalParameters(),
-                        live_->monitor().estimatorStarted(), experiments_->sweptValve(),
-                        experiments_->holder());
+  // The supervisor keeps the feed-forward at 0 V while an experiment holds the valve (its command would add
+  // to the experiment's on the cell controller's adder).
+  feed_forward_->update(g, *live_, experiments_->sweptValve());
 }
 
 // ---- services ----
@@ -210,7 +205,8 @@ void IdentificationNode::diagnoseInput(diagnostic_updater::DiagnosticStatusWrapp
   input.new_wild_stamps = input.health.wild_stamps > wild_reported_[s];
   wild_reported_[s] = input.health.wild_stamps;
   input.all_inputs_silent_for = allInputsSilentFor(live_->pipeline().resampler(), input.now);
-  input.spool_age = input.now - signals_.spoolStamp();
+  input.spool_age =
+      valve_->locked([](const ValveSupervisor& v) { return v.condition(SupervisedValve::now()).spool_age; });
   fill(status, inputHealth(input));
 }
 

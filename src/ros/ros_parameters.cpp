@@ -1,5 +1,6 @@
 #include "ros_parameters.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <sstream>
@@ -103,6 +104,15 @@ void readNodeSettings(const ros::NodeHandle& pnh, NodeSettings* settings,
              [&](double v) { settings->feed_forward_slew_rate = v; });
   readNumber(pnh, "feed_forward_parameter_rate", problems,
              [&](double v) { settings->feed_forward_parameter_rate = v; });
+  readNumber(pnh, "feed_forward_max_lead", problems, [&](double v) { settings->feed_forward_max_lead = v; });
+  readNumber(pnh, "feed_forward_rate_window", problems,
+             [&](double v) { settings->feed_forward_rate_window = v; });
+  readNumber(pnh, "feed_forward_max_setpoint_rate", problems,
+             [&](double v) { settings->feed_forward_max_setpoint_rate = v; });
+  if (pnh.hasParam("feed_forward_enabled") &&
+      !pnh.getParam("feed_forward_enabled", settings->feed_forward_enabled)) {
+    problems->push_back("~feed_forward_enabled is invalid: must be true or false");
+  }
   readNumber(pnh, "survey_seconds", problems, [&](double v) { settings->survey_seconds = v; });
   if (pnh.hasParam("choose_settings") && !pnh.getParam("choose_settings", settings->choose_settings)) {
     problems->push_back("~choose_settings is invalid: must be true or false");
@@ -119,7 +129,8 @@ void readModelAndJoint(const ros::NodeHandle& pnh, IdentificationConfig* config,
     problems->push_back("~regression_form = " + (form.empty() ? std::string("(not a name)") : form) +
                         " is invalid: allowed integral, derivative");
   }
-  if (pnh.hasParam("joint_name") && (!pnh.getParam("joint_name", settings->joint_name) || settings->joint_name.empty())) {
+  if (pnh.hasParam("joint_name") &&
+      (!pnh.getParam("joint_name", settings->joint_name) || settings->joint_name.empty())) {
     problems->push_back(
         "~joint_name is invalid: must be the name of a joint in the position topic's JointState");
   }
@@ -143,6 +154,13 @@ void checkNodeSettings(const ros::NodeHandle& pnh, const NodeSettings& settings,
   positive("feed_forward_max_age", settings.feed_forward_max_age);
   positive("feed_forward_slew_rate", settings.feed_forward_slew_rate);
   positive("feed_forward_parameter_rate", settings.feed_forward_parameter_rate);
+  positive("feed_forward_max_setpoint_rate", settings.feed_forward_max_setpoint_rate);
+  if (!(settings.feed_forward_max_lead > 0.0 && settings.feed_forward_max_lead <= 0.5)) {
+    invalid("feed_forward_max_lead", settings.feed_forward_max_lead, "(0, 0.5] s");
+  }
+  if (!(settings.feed_forward_rate_window >= 1e-3 && settings.feed_forward_rate_window <= 1.0)) {
+    invalid("feed_forward_rate_window", settings.feed_forward_rate_window, "[1e-3, 1] s");
+  }
   if (pnh.hasParam("valve_gain") && !(std::isfinite(settings.valve_gain) && settings.valve_gain != 0.0)) {
     invalid("valve_gain", settings.valve_gain, "finite and non-zero [1/V]");
   }
@@ -168,7 +186,32 @@ std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, Identificati
   return problems;
 }
 
-LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settings, const ros::NodeHandle& pnh) {
+FeedForwardOutputLimits feedForwardOutputLimits(const NodeSettings& settings, const SweepLimits& limits) {
+  FeedForwardOutputLimits output;
+  // Symmetric for the inverse, inside the requested range on both sides; a range that excludes 0 V on one
+  // side allows nothing.
+  output.max_voltage = std::max(1e-9, std::min(-limits.min_voltage, limits.max_voltage));
+  output.slew_rate = settings.feed_forward_slew_rate;
+  // Two of the watchdog's periods: the longest a ramp waits for its next command.
+  output.max_step_interval = 2.0 * ValveSupervisor::watchPeriod(limits);
+  return output;
+}
+
+FeedForwardPublisher::Settings feedForwardSettings(const NodeSettings& settings, const SweepLimits& limits) {
+  FeedForwardPublisher::Settings ff;
+  ff.valve_gain = settings.valve_gain;
+  ff.max_voltage = feedForwardOutputLimits(settings, limits).max_voltage;
+  ff.setpoint.max_age = settings.feed_forward_max_age;
+  ff.setpoint.max_clock_offset = limits.max_clock_offset;
+  ff.setpoint.rate_window = settings.feed_forward_rate_window;
+  ff.setpoint.max_rate = settings.feed_forward_max_setpoint_rate;
+  ff.interlock.parameter_rate = settings.feed_forward_parameter_rate;
+  ff.interlock.max_lead = settings.feed_forward_max_lead;
+  return ff;
+}
+
+LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settings,
+                                                      const ros::NodeHandle& pnh) {
   LiveIdentificationSettings live;
   live.monitor.ranking_window = settings.effect_ranking_window;
   live.monitor.ranking_period = settings.effect_ranking_period;

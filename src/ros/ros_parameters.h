@@ -7,9 +7,11 @@
 #include <string>
 #include <vector>
 
+#include "die_cushion_ident/core/control/feed_forward_output.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/monitoring/live_identification.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
+#include "feed_forward_publisher.h"
 
 namespace die_cushion_ident {
 
@@ -23,19 +25,29 @@ struct NodeSettings {
   /// [1/V] the valve's static gain for ~feed_forward until a sweep identifies the valve; NaN: no
   /// feed-forward before a sweep (an unknown valve gain must not become a command).
   double valve_gain = std::numeric_limits<double>::quiet_NaN();
-  double feed_forward_max_age = 0.05;  ///< [s] an older pressure_setpoint is not used
-  double feed_forward_slew_rate = 100.0;    ///< [V/s] fastest change of the feed-forward command
+  double feed_forward_max_age = 0.05;     ///< [s] an older pressure_setpoint (stamp or arrival) is not used
+  double feed_forward_slew_rate = 100.0;  ///< [V/s] fastest change of the feed-forward command (steady time)
   double feed_forward_parameter_rate = 0.5;  ///< [1/s] fastest relative change of a parameter it uses
+  double feed_forward_max_lead = 0.03;       ///< [s] longest lag of the valve the set-point is previewed over
+  double feed_forward_rate_window = 0.02;    ///< [s] the set-point's rate: its slope over this window
+  double feed_forward_max_setpoint_rate = 2e9;  ///< [Pa/s] the set-point's rate is never taken beyond this
+  bool feed_forward_enabled = true;             ///< at start (~enable_feed_forward switches it later)
   /// Choose the sample period, filters, clock offsets and valve model from the first `survey_seconds` of
   /// messages (the settings study analyze_bag runs), unless configured.
   bool choose_settings = true;
   double survey_seconds = 24.0;  ///< [s]
 };
 
+/// The feed-forward's output stage: inside the requested safe command range on both sides, slew-limited.
+FeedForwardOutputLimits feedForwardOutputLimits(const NodeSettings& settings, const SweepLimits& limits);
+/// The feed-forward's inverse: its set-point stream and interlock limits.
+FeedForwardPublisher::Settings feedForwardSettings(const NodeSettings& settings, const SweepLimits& limits);
+
 /// The configuration keys among the private parameters (kept and judged by the settings survey).
 std::set<std::string> configuredKeys(const ros::NodeHandle& pnh);
 /// The live identification's settings from the node's (and which keys the user configured).
-LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settings, const ros::NodeHandle& pnh);
+LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settings,
+                                                      const ros::NodeHandle& pnh);
 
 /// A list of strings: a YAML list, or one string "a,b" / "[a, b]" as given on a command line (commas
 /// inside parentheses stay: a custom effect may hold max(p, 0)). Problems are appended to `problems`.

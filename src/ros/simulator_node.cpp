@@ -2,7 +2,8 @@
 // Publishes `pressure`, `position` and `valve` (the contract's input topics) in its namespace, follows
 // `valve_command` while a sweep sends it, and publishes its true parameters on ~truth and ~valve_truth.
 // Under /use_sim_time it is the clock: it publishes /clock and runs ~realtime_factor times faster than
-// real time (0 = as fast as possible).
+// real time (0 = as fast as possible). ~inject_fault plays a dead bus, a stopped /clock or drives whose
+// clocks are off, for trying a cell's supervision (the fault-injection rostests).
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
@@ -15,6 +16,7 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <thread>
 
+#include "die_cushion_ident/InjectFault.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
 #include "die_cushion_ident/ValveSignal.h"
@@ -99,6 +101,7 @@ class SimulatorNode {
     if (sim_time_) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
     command_sub_ = nh_.subscribe("valve_command", 100, &SimulatorNode::onCommand, this,
                                  ros::TransportHints().tcpNoDelay());
+    fault_srv_ = pnh_.advertiseService("inject_fault", &SimulatorNode::injectFault, this);
     publishTruth();
   }
 
@@ -119,8 +122,10 @@ class SimulatorNode {
       }
       out.clear();
       sim_.step(&out);
-      for (const auto& m : out) publish(m, epoch);
-      if (sim_time_) {
+      if (!silence_inputs_) {
+        for (const auto& m : out) publish(m, epoch + stamp_offset_);
+      }
+      if (sim_time_ && !stop_clock_) {
         rosgraph_msgs::Clock clock;
         clock.clock = ros::Time(epoch + sim_.state().t);
         clock_pub_.publish(clock);
@@ -134,6 +139,23 @@ class SimulatorNode {
   }
 
  private:
+  bool injectFault(InjectFault::Request& req, InjectFault::Response& res) {
+    if (!std::isfinite(req.stamp_offset)) {
+      res.success = false;
+      res.message = "stamp_offset must be finite";
+      return true;
+    }
+    silence_inputs_ = req.silence_inputs;
+    stop_clock_ = req.stop_clock;
+    stamp_offset_ = req.stamp_offset;
+    res.success = true;
+    res.message = std::string(req.silence_inputs ? "inputs silent" : "inputs published") +
+                  (req.stop_clock ? ", /clock stopped" : "") + ", stamps offset by " +
+                  std::to_string(req.stamp_offset) + " s";
+    ROS_WARN("simulator: fault injected: %s", res.message.c_str());
+    return true;
+  }
+
   void onCommand(const ValveSignal::ConstPtr& msg) {
     if (!std::isfinite(msg->voltage)) {
       ROS_WARN_THROTTLE(5.0, "simulator: non-finite valve_command ignored");
@@ -150,7 +172,8 @@ class SimulatorNode {
     switch (m.stream) {
       // Shared pointers: inside a nodelet manager the messages reach the identification without copies.
       case InputStream::kPressure:
-        pressure_pub_.publish(boost::make_shared<sensor_msgs::FluidPressure>(toFluidPressureMsg(m.sample, stamp)));
+        pressure_pub_.publish(
+            boost::make_shared<sensor_msgs::FluidPressure>(toFluidPressureMsg(m.sample, stamp)));
         break;
       case InputStream::kPosition:
         position_pub_.publish(boost::make_shared<sensor_msgs::JointState>(toJointStateMsg(m.sample, stamp)));
@@ -184,11 +207,14 @@ class SimulatorNode {
   double realtime_factor_ = 1.0, command_timeout_ = 0.05, duration_ = 0.0;
   bool sim_time_ = false;
   std::atomic<bool> stop_{false};
+  std::atomic<bool> silence_inputs_{false}, stop_clock_{false};
+  std::atomic<double> stamp_offset_{0.0};
   std::mutex command_mutex_;
   double command_ = 0.0, command_time_ = -1e18;
   bool received_command_ = false;
   ros::Publisher pressure_pub_, position_pub_, valve_pub_, truth_pub_, valve_truth_pub_, clock_pub_;
   ros::Subscriber command_sub_;
+  ros::ServiceServer fault_srv_;
 };
 
 }  // namespace

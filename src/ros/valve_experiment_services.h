@@ -4,84 +4,77 @@
 #include <ros/ros.h>
 
 #include <cstddef>
-#include <functional>
 #include <limits>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "die_cushion_ident/AbortSweep.h"
 #include "die_cushion_ident/StartStepTest.h"
 #include "die_cushion_ident/StartSweep.h"
 #include "die_cushion_ident/core/monitoring/live_identification.h"
-#include "die_cushion_ident/core/valve/plant_signals.h"
 #include "die_cushion_ident/core/valve/step_response.h"
-#include "die_cushion_ident/core/valve/valve_experiments.h"
+#include "supervised_valve.h"
 
 namespace die_cushion_ident {
 
 /// The valve experiments' ROS face: the services ~start_sweep, ~abort_sweep and ~start_step_test, the
-/// command on valve_command while an experiment holds the valve, the sweep's ~frequency_response and
-/// ~valve_model, the step test's timing of the pressure's answer, and the diagnostics "valve model",
-/// "step test" and "valve experiments". The experiments themselves, their interlocks and the hand-back are
-/// ValveExperiments's; this class wires them to topics, services and a timer. It shares the node's mutex:
-/// its callbacks lock it, the node calls the on... methods with it held.
+/// sweep's ~frequency_response and ~valve_model, the step test's timing of the pressure's answer, and the
+/// diagnostics "valve model", "step test" and "valve experiments". The experiments, their interlocks, their
+/// commands and the hand-back are the SupervisedValve's; this class starts them and reports their results.
+/// Its services lock the node's mutex (the sweep's result goes into the identification), then the
+/// supervisor's; the node calls the on... methods with its mutex held.
 class ValveExperimentServices {
  public:
-  ValveExperimentServices(ros::NodeHandle nh, ros::NodeHandle pnh, const SweepLimits& limits,
-                          double command_hold, std::mutex& mutex, LiveIdentification& live,
-                          const PlantSignals& signals, std::function<bool()> feed_forward_engaged);
-  /// Aborts a running experiment ("shutdown") and sends the valve back to its offset.
-  ~ValveExperimentServices();
+  ValveExperimentServices(ros::NodeHandle pnh, std::mutex& mutex, LiveIdentification& live,
+                          SupervisedValve& valve);
 
   void addDiagnostics(diagnostic_updater::Updater& updater);
-  /// A valve message (the mutex held): the sweep's samples.
-  void onValveMessage(double stamp, double voltage, double spool);
-  /// A grid sample (the mutex held): times the step test's answer once the grid holds it.
+  /// After a valve message or a grid sample (the node's mutex held): publishes new sweep points and an
+  /// ended sweep's results, and notes an ended step test.
+  void poll();
+  /// A grid sample (the node's mutex held): times the step test's answer once the grid holds it.
   void onGridSample(double t);
 
-  /// Who holds the valve ("" when nobody; the feed-forward pauses otherwise). The mutex held.
-  std::string holder() const { return experiments_.holder(); }
-  /// True while an experiment commands the valve. The mutex held.
-  bool holdsValve() const { return experiments_.holdsValve(); }
-  /// The last sweep's successful valve fit, or nullptr. The mutex held.
+  /// The last sweep's successful valve fit, or nullptr. The node's mutex held.
   const ServoValveParameters* sweptValve() const {
     return last_valve_fit_.success ? &last_valve_fit_.parameters : nullptr;
   }
 
  private:
+  /// What a sweep's results need, copied out of the supervisor.
+  struct SweepReport {
+    std::vector<FrequencyResponsePoint> points;
+    ServoValveFit fit;
+    ValveSweep::State state;
+    std::string abort_reason;
+  };
+
   bool startSweep(StartSweep::Request& request, StartSweep::Response& response);
   bool abortSweep(AbortSweep::Request& request, AbortSweep::Response& response);
   bool startStepTest(StartStepTest::Request& request, StartStepTest::Response& response);
-  /// Supervises the experiment that holds the valve and sends its command; stops once it handed back.
-  void onTimer(const ros::TimerEvent&);
-  void startTimer();
-  void publishCommand(double voltage);
-  void publishFrequencyResponse();
-  void finishSweep();
+  void publishFrequencyResponse(const SweepReport& sweep);
+  void finishSweep(const SweepReport& sweep);
   /// The step test's end: its status, and when to time the pressure's answer.
-  void stepTestEnded();
+  void stepTestEnded(const ValveStepTest& test);
 
-  ros::NodeHandle nh_, pnh_;
-  SweepLimits limits_;
+  ros::NodeHandle pnh_;
   std::mutex& mutex_;
   LiveIdentification& live_;
-  const PlantSignals& signals_;
-  std::function<bool()> feed_forward_engaged_;
+  SupervisedValve& valve_;
 
-  // The sweep and the step test, one at a time, behind the same interlocks.
-  ValveExperiments experiments_;
-  ros::Timer timer_;  // runs while an experiment holds the valve (until it handed it back)
   ServoValveFit last_valve_fit_;
-  bool sweep_reported_ = false;  // the ended sweep's results have been published
+  bool sweep_reported_ = true;  // the last sweep's results have been published
   std::size_t published_points_ = 0;
   bool step_test_reported_ = true;                                      // the ended step test's status is set
+  double step_time_ = 0.0;                                              // [s] the running step's own time
   double step_analysis_due_ = std::numeric_limits<double>::infinity();  // grid time to time the answer
   std::optional<StepResponse> last_step_response_;
   std::string step_status_ = "no step test run (~start_step_test)";
   bool step_failed_ = false;  // aborted, or its answer could not be timed
 
-  ros::Publisher command_pub_, response_pub_, valve_model_pub_;
+  ros::Publisher response_pub_, valve_model_pub_;
   ros::ServiceServer start_srv_, abort_srv_, step_srv_;
 };
 

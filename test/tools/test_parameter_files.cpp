@@ -81,14 +81,18 @@ TEST(ParameterFiles, NodeSettingsAndSweepLimitsAreTheCodes) {
       {"valve_gain", settings.valve_gain},
       {"feed_forward_max_age", settings.feed_forward_max_age},
       {"feed_forward_slew_rate", settings.feed_forward_slew_rate},
-      {"feed_forward_parameter_rate", settings.feed_forward_parameter_rate}};
+      {"feed_forward_parameter_rate", settings.feed_forward_parameter_rate},
+      {"feed_forward_max_lead", settings.feed_forward_max_lead},
+      {"feed_forward_rate_window", settings.feed_forward_rate_window},
+      {"feed_forward_max_setpoint_rate", settings.feed_forward_max_setpoint_rate}};
   for (const auto& [key, value] : numbers) {
     ASSERT_TRUE(shown.count(key)) << key << " is not shown in " << path;
     EXPECT_TRUE(same(shown.at(key).as<double>(), value)) << key;
   }
   EXPECT_EQ(shown.at("choose_settings").as<bool>(), settings.choose_settings);
+  EXPECT_EQ(shown.at("feed_forward_enabled").as<bool>(), settings.feed_forward_enabled);
   // Every key the file sets is one the node reads (a typo would be a silently ignored parameter).
-  std::size_t known = sweepLimitKeys().size() + numbers.size() + 1;
+  std::size_t known = sweepLimitKeys().size() + numbers.size() + 2;
   EXPECT_EQ(shown.size(), known) << "a key in " << path << " the test does not know";
 }
 

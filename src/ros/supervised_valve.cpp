@@ -1,0 +1,140 @@
+#include "supervised_valve.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "die_cushion_ident/ValveSignal.h"
+
+namespace die_cushion_ident {
+
+SupervisedValve::SupervisedValve(ros::NodeHandle nh, ros::NodeHandle pnh, const SweepLimits& limits,
+                                 const FeedForwardOutputLimits& feed_forward, double command_hold)
+    : supervisor_(limits, feed_forward), nh_(nh), command_period_(limits.command_period) {
+  supervisor_.setCommandHold(command_hold);
+  // Small queues: a command that waits behind others is worth less than the newest one.
+  command_pub_ = nh_.advertise<ValveSignal>("valve_command", 10);
+  feed_forward_pub_ = pnh.advertise<ValveSignal>("feed_forward", 10);
+  watchdog_ = std::thread([this] { watchdog(); });
+}
+
+SupervisedValve::~SupervisedValve() {
+  stop_ = true;
+  if (watchdog_.joinable()) watchdog_.join();
+  command_timer_.stop();  // no callback runs any more: the owner's spinner has stopped
+  std::lock_guard<std::mutex> lock(mutex_);
+  Instant t = now();
+  supervisor_.abortExperiment("shutdown", t);
+  if (const auto u = supervisor_.experimentCommand(t)) publishCommand(*u);
+  // The feed-forward ramps out as it would on any other fault, for at most kShutdownRamp.
+  supervisor_.enableFeedForward(false, t);
+  const double period = ValveSupervisor::watchPeriod(supervisor_.limits());
+  const double end = t.steady + kShutdownRamp;
+  while (supervisor_.feedForwardEngaged() && t.steady < end) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(period));
+    t = now();
+    send(supervisor_.watch(t));
+  }
+  if (supervisor_.feedForwardEngaged()) publishFeedForward(0.0);  // a node that goes must not leave a voltage
+}
+
+Instant SupervisedValve::now() {
+  const double steady =
+      std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  return {steady, ros::Time::now().toSec()};
+}
+
+void SupervisedValve::pressure(double stamp, double value) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  supervisor_.pressure(stamp, value, now());
+}
+
+void SupervisedValve::position(double stamp, double x) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  supervisor_.position(stamp, x, now());
+}
+
+void SupervisedValve::valve(double stamp, double voltage, double spool) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  supervisor_.valve(stamp, voltage, spool, now());
+  experiment_holds_valve_ = supervisor_.experimentHoldsValve();
+}
+
+std::string SupervisedValve::startSweep(const SweepRequest& request) {
+  return startExperiment([&](ValveSupervisor& s) { return s.startSweep(request, now()); });
+}
+
+std::string SupervisedValve::startStepTest(const StepTestRequest& request) {
+  return startExperiment([&](ValveSupervisor& s) { return s.startStepTest(request, now()); });
+}
+
+std::string SupervisedValve::startExperiment(const std::function<std::string(ValveSupervisor&)>& start) {
+  // Lock order: the timer's mutex, then the supervisor's (as in onCommandTimer). The timer is only ever
+  // stopped by its own callback, which roscpp allows without waiting for itself.
+  std::lock_guard<std::mutex> timer_lock(timer_mutex_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string refusal = start(supervisor_);
+  experiment_holds_valve_ = supervisor_.experimentHoldsValve();
+  if (!refusal.empty()) return refusal;
+  if (!command_timer_.isValid()) {
+    // Commands at twice the valve rate, so that every valve update finds a fresh one despite jitter.
+    command_timer_ =
+        nh_.createTimer(ros::Duration(0.5 * command_period_), &SupervisedValve::onCommandTimer, this);
+  } else {
+    command_timer_.start();
+  }
+  return "";
+}
+
+void SupervisedValve::feedForward(double wanted, const std::string& why) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (const auto u = supervisor_.feedForward(wanted, why, now())) publishFeedForward(*u);
+}
+
+void SupervisedValve::onCommandTimer(const ros::TimerEvent&) {
+  std::lock_guard<std::mutex> timer_lock(timer_mutex_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (const auto u = supervisor_.experimentCommand(now())) publishCommand(*u);
+  experiment_holds_valve_ = supervisor_.experimentHoldsValve();
+  if (!experiment_holds_valve_) command_timer_.stop();  // the offset has been sent
+}
+
+void SupervisedValve::watchdog() {
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(ValveSupervisor::watchPeriod(supervisor_.limits())));
+  auto next = std::chrono::steady_clock::now();
+  while (!stop_) {
+    next += period;
+    std::this_thread::sleep_until(next);
+    // A stalled thread does not catch up in a burst: the next tick is a period from now.
+    next = std::max(next, std::chrono::steady_clock::now());
+    std::lock_guard<std::mutex> lock(mutex_);
+    send(supervisor_.watch(now()));
+    // The command timer stops itself at its next call (stopping it from here could wait for that very
+    // call, which waits for this lock).
+    experiment_holds_valve_ = supervisor_.experimentHoldsValve();
+  }
+}
+
+void SupervisedValve::send(const ValveSupervisor::Commands& commands) {
+  if (commands.valve_command) publishCommand(*commands.valve_command);
+  if (commands.feed_forward) publishFeedForward(*commands.feed_forward);
+}
+
+void SupervisedValve::publishCommand(double voltage) {
+  ValveSignal msg;
+  msg.header.stamp = ros::Time::now();
+  msg.voltage = voltage;
+  msg.spool_position = std::numeric_limits<double>::quiet_NaN();
+  command_pub_.publish(msg);
+}
+
+void SupervisedValve::publishFeedForward(double voltage) {
+  ValveSignal msg;
+  msg.header.stamp = ros::Time::now();
+  msg.voltage = voltage;
+  msg.spool_position = std::numeric_limits<double>::quiet_NaN();
+  feed_forward_pub_.publish(msg);
+}
+
+}  // namespace die_cushion_ident
