@@ -25,7 +25,7 @@ SupervisedValve::~SupervisedValve() {
   std::lock_guard<std::mutex> lock(mutex_);
   Instant t = now();
   supervisor_.abortExperiment("shutdown", t);
-  if (const auto u = supervisor_.experimentCommand(t)) publishCommand(*u);
+  if (const auto u = supervisor_.experimentCommand(t)) publish(command_pub_, *u);
   // The feed-forward ramps out as it would on any other fault, for at most kShutdownRamp.
   supervisor_.enableFeedForward(false, t);
   const double period = ValveSupervisor::watchPeriod(supervisor_.limits());
@@ -35,7 +35,8 @@ SupervisedValve::~SupervisedValve() {
     t = now();
     send(supervisor_.watch(t));
   }
-  if (supervisor_.feedForwardEngaged()) publishFeedForward(0.0);  // a node that goes must not leave a voltage
+  if (supervisor_.feedForwardEngaged())
+    publish(feed_forward_pub_, 0.0);  // a node that goes must not leave a voltage
 }
 
 Instant SupervisedValve::now() {
@@ -88,13 +89,13 @@ std::string SupervisedValve::startExperiment(const std::function<std::string(Val
 
 void SupervisedValve::feedForward(double wanted, const std::string& why) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto u = supervisor_.feedForward(wanted, why, now())) publishFeedForward(*u);
+  if (const auto u = supervisor_.feedForward(wanted, why, now())) publish(feed_forward_pub_, *u);
 }
 
 void SupervisedValve::onCommandTimer(const ros::TimerEvent&) {
   std::lock_guard<std::mutex> timer_lock(timer_mutex_);
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto u = supervisor_.experimentCommand(now())) publishCommand(*u);
+  if (const auto u = supervisor_.experimentCommand(now())) publish(command_pub_, *u);
   experiment_holds_valve_ = supervisor_.experimentHoldsValve();
   if (!experiment_holds_valve_) command_timer_.stop();  // the offset has been sent
 }
@@ -117,24 +118,16 @@ void SupervisedValve::watchdog() {
 }
 
 void SupervisedValve::send(const ValveSupervisor::Commands& commands) {
-  if (commands.valve_command) publishCommand(*commands.valve_command);
-  if (commands.feed_forward) publishFeedForward(*commands.feed_forward);
+  if (commands.valve_command) publish(command_pub_, *commands.valve_command);
+  if (commands.feed_forward) publish(feed_forward_pub_, *commands.feed_forward);
 }
 
-void SupervisedValve::publishCommand(double voltage) {
+void SupervisedValve::publish(const ros::Publisher& publisher, double voltage) {
   ValveSignal msg;
   msg.header.stamp = ros::Time::now();
   msg.voltage = voltage;
-  msg.spool_position = std::numeric_limits<double>::quiet_NaN();
-  command_pub_.publish(msg);
-}
-
-void SupervisedValve::publishFeedForward(double voltage) {
-  ValveSignal msg;
-  msg.header.stamp = ros::Time::now();
-  msg.voltage = voltage;
-  msg.spool_position = std::numeric_limits<double>::quiet_NaN();
-  feed_forward_pub_.publish(msg);
+  msg.spool_position = std::numeric_limits<double>::quiet_NaN();  // a command: no spool measured
+  publisher.publish(msg);
 }
 
 }  // namespace die_cushion_ident

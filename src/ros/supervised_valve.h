@@ -62,8 +62,8 @@ class SupervisedValve {
   std::string startExperiment(const std::function<std::string(ValveSupervisor&)>& start);
   void onCommandTimer(const ros::TimerEvent&);
   void send(const ValveSupervisor::Commands& commands);
-  void publishCommand(double voltage);
-  void publishFeedForward(double voltage);
+  /// A command on `publisher` (valve_command or ~feed_forward), stamped when sent.
+  static void publish(const ros::Publisher& publisher, double voltage);
 
   mutable std::mutex mutex_;  // the supervisor's; never held while waiting for timer_mutex_
   std::mutex timer_mutex_;    // the command timer's start and stop, taken before mutex_

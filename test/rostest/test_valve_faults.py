@@ -19,14 +19,11 @@ from sensor_msgs.msg import FluidPressure, JointState
 from die_cushion_ident.msg import ParameterEstimate
 from die_cushion_ident.srv import AbortSweep, Reset, SetEffects, SetFeedForward, StartStepTest, StartSweep
 from rostest_helpers import Latest
-from valve_faults_common import (SAFE_BOUND, Press, Recorder, back_at_offset_after, check_limits,
+from valve_faults_common import (NS, SAFE_BOUND, SWEEP, Press, Recorder, back_at_offset_after, check_limits,
                                  check_one_output_at_a_time, check_slew, start_when_at_rest, wait_until)
 
-NS = "/die_cushion/ident/"
 VOLTAGE = 3.0  # sweep_min/max_voltage of valve_faults.test
 SLEW = 20.0  # feed_forward_slew_rate of valve_faults.test
-SWEEP = dict(frequencies=[20.0, 40.0, 60.0, 80.0, 100.0], amplitude=0.3, settle_periods=0.0,
-             integration_periods=0.0)
 
 
 class ValveFaults(unittest.TestCase):

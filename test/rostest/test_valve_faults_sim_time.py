@@ -17,11 +17,9 @@ from rosgraph_msgs.msg import Clock
 
 from die_cushion_ident.srv import AbortSweep, StartSweep
 from rostest_helpers import tool
-from valve_faults_common import SAFE_BOUND, Press, Recorder, back_at_offset_after, check_limits, start_when_at_rest
+from valve_faults_common import (NS, SAFE_BOUND, SWEEP, Press, Recorder, back_at_offset_after, check_limits,
+                                 start_when_at_rest)
 
-NS = "/die_cushion/ident/"
-SWEEP = dict(frequencies=[20.0, 40.0, 60.0, 80.0, 100.0], amplitude=0.3, settle_periods=0.0,
-             integration_periods=0.0)
 
 
 class ValveFaultsSimTime(unittest.TestCase):

@@ -16,6 +16,10 @@ from rostest_helpers import tool
 # [s] the bound the issue sets for a sweep's command to be back at its offset after the bus died, measured
 # from outside on valve_command: the supervision timeout (50 ms) plus the watchdog's period and transport.
 SAFE_BOUND = 0.1
+# The identification's namespace in the fault tests, and the sweep they start (5 frequencies, about 2.9 s).
+NS = "/die_cushion/ident/"
+SWEEP = dict(frequencies=[20.0, 40.0, 60.0, 80.0, 100.0], amplitude=0.3, settle_periods=0.0,
+             integration_periods=0.0)
 
 
 class Press:

@@ -31,18 +31,22 @@ PlantCondition ValveSupervisor::condition(Instant now) const {
 }
 
 std::string ValveSupervisor::startSweep(const SweepRequest& request, Instant now) {
-  using Kind = ValveExperiments::Kind;
-  if (feedForwardEngaged()) return experiments_.refuse(Kind::kSweep, feedForwardHoldsValve(), now);
-  const std::string refusal = experiments_.startSweep(request, now, condition(now));
-  if (refusal.empty()) command_sent_ = now.steady;
-  return refusal;
+  return startExperiment(ValveExperiments::Kind::kSweep, now, [&](const PlantCondition& plant) {
+    return experiments_.startSweep(request, now, plant);
+  });
 }
 
 std::string ValveSupervisor::startStepTest(const StepTestRequest& request, Instant now) {
-  using Kind = ValveExperiments::Kind;
-  if (feedForwardEngaged()) return experiments_.refuse(Kind::kStepTest, feedForwardHoldsValve(), now);
-  const std::string refusal = experiments_.startStepTest(request, now, condition(now));
-  if (refusal.empty()) command_sent_ = now.steady;
+  return startExperiment(ValveExperiments::Kind::kStepTest, now, [&](const PlantCondition& plant) {
+    return experiments_.startStepTest(request, now, plant);
+  });
+}
+
+std::string ValveSupervisor::startExperiment(ValveExperiments::Kind kind, Instant now,
+                                             const std::function<std::string(const PlantCondition&)>& start) {
+  if (feedForwardEngaged()) return experiments_.refuse(kind, feedForwardHoldsValve(), now);
+  const std::string refusal = start(condition(now));
+  if (refusal.empty()) command_sent_ = now.steady;  // the command path is watched from now on
   return refusal;
 }
 

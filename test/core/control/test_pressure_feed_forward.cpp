@@ -140,7 +140,9 @@ TEST(PressureFeedForward, InsideTheOverlapTheOpeningIsInterpolatedSoNoiseDoesNot
     for (double v = -0.01; v <= 0.01; v += 1e-5) {
       const double y = ff.spoolOpening(50e5, 0.0, 0.1, v);
       EXPECT_GE(y, y_before - 1e-12);
-      if (std::isfinite(y_before)) EXPECT_LT(y - y_before, 0.01) << "no jump at v = " << v;
+      if (std::isfinite(y_before)) {
+        EXPECT_LT(y - y_before, 0.01) << "no jump at v = " << v;
+      }
       y_before = y;
     }
     EXPECT_NEAR(ff.spoolOpening(50e5, 0.0, 0.1, 0.0), 0.0, 1e-9) << "zero flow: the band's middle";

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -97,6 +98,9 @@ class ValveSupervisor {
   const SweepLimits& limits() const { return limits_; }
 
  private:
+  /// Starts an experiment of `kind` with `start` unless the feed-forward holds the valve.
+  std::string startExperiment(ValveExperiments::Kind kind, Instant now,
+                              const std::function<std::string(const PlantCondition&)>& start);
   /// The running experiment's interlocks, duration and (from the watchdog) its command path; notes a fault.
   void superviseExperiment(Instant now, bool from_watchdog);
   std::string feedForwardHoldsValve() const;
