@@ -1,6 +1,7 @@
 // simulate_bag: records the built-in simulator into a bag with the contract's input topics, as a press would
 // record it (press cycles, then optionally a valve sine sweep with the cushion at rest). For trying
-// analyze_bag, for its tests and for the throughput benchmark; no roscore needed.
+// analyze_bag, for its tests and for the throughput benchmark; no roscore needed. The bag, the config and
+// the truth are written whole or not at all (OutputFiles): exit 4 when one cannot be written.
 
 #include <algorithm>
 #include <cmath>
@@ -11,11 +12,12 @@
 #include "argument_parser.h"
 #include "bag_stream_writer.h"
 #include "command_line.h"
-#include "message_conversions.h"
+#include "die_cushion_ident/core/signal/velocity_from_position.h"
 #include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
-#include "die_cushion_ident/core/signal/velocity_from_position.h"
+#include "message_conversions.h"
+#include "output_files.h"
 
 using namespace die_cushion_ident;
 
@@ -24,8 +26,10 @@ namespace {
 const char* kUsage =
     "usage: simulate_bag OUT.bag [--cycles N] [--hours H] [--plant-effects a,b] [--custom-effect NAME=EXPR]\n"
     "                    [--set NAME=VALUE]... [--seed S] [--sweep] [--step-test VOLTAGE] [--epoch SECONDS]\n"
-    "                    [--press CLASS] [--variation N] [--write-config FILE.yaml] [--write-truth FILE.yaml]\n"
-    "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name N]\n"
+    "                    [--press CLASS] [--variation N] [--write-config FILE.yaml] [--write-truth "
+    "FILE.yaml]\n"
+    "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name "
+    "N]\n"
     "                    [--rates P,X,V] [--stamp-offsets P,X,V] [--continuous-command] [--start-offset S]\n"
     "                    [--effects-from-cycle K]\n"
     "  Press cycles of the simulated die cushion on /die_cushion/{pressure,position,valve};\n"
@@ -36,21 +40,27 @@ const char* kUsage =
     "                         analyze_bag --config; --write-truth FILE its true parameters (YAML);\n"
     "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest;\n"
     "  --step-test V then a valve command step of V volts at rest (held 1.5 s), for the pressure's t63.\n"
-    "  --effects-from-cycle K the plant effects act only from press cycle K on (0: the first; before it their\n"
+    "  --effects-from-cycle K the plant effects act only from press cycle K on (0: the first; before it "
+    "their\n"
     "                         parameters are 0): a leak or air that starts while the press is recorded;\n"
     "                         --write-truth then adds effects_from_cycle and effects_from_time [s].\n"
     "  Sensor configurations a press may have:\n"
     "    --no-velocity         JointState with position only (a linear encoder)\n"
     "    --no-spool            spool position not measured (NaN)\n"
     "    --joints a,b,c        the position topic carries several joints (a cell's joint_states); the\n"
-    "                          cushion is the one named by --joint-name (default 'cushion'), the others move\n"
+    "                          cushion is the one named by --joint-name (default 'cushion'), the others "
+    "move\n"
     "                          with it (ram above it, blank holder at a tenth of its stroke)\n"
     "    --rates P,X,V         message rates [Hz] of pressure, position and valve (default 1000,1000,1000;\n"
     "                          the valve rate is at most the 1 kHz command rate)\n"
     "    --stamp-offsets P,X,V added to each topic's stamps [s] (a topic stamped late by another clock)\n"
     "    --continuous-command  the sweep's command comes from a continuous signal generator, sampled by the\n"
-    "                          valve messages (not held by an amplifier): analyse with valve_command_hold: 0\n"
-    "    --start-offset S      the recording starts S seconds into the press cycle (mid-stroke)\n";
+    "                          valve messages (not held by an amplifier): analyse with valve_command_hold: "
+    "0\n"
+    "    --start-offset S      the recording starts S seconds into the press cycle (mid-stroke)\n"
+    "  Exit 0; 1 the simulation failed; 2 bad arguments; 4 an output cannot be written (nothing is left "
+    "under\n"
+    "  its name: the bag, config and truth are renamed from temporary names when all are whole).\n";
 
 // The three topics' names in the order of InputStream.
 const char* const kTopics[kInputStreamCount] = {"/die_cushion/pressure", "/die_cushion/position",
@@ -217,21 +227,21 @@ SimulatorConfig buildPlant(const Options& o) {
   return built;
 }
 
-bool writeConfig(const Options& o, const SimulatorConfig& plant) {
-  std::ofstream file(o.config_out);
+void writeConfig(const Options& o, const SimulatorConfig& plant, const std::string& path) {
+  std::ofstream file(path);
   file << "# The press simulate_bag recorded (" << pressClassName(o.press) << ", variation " << o.variation
        << "): its geometry for analyze_bag --config.\n"
        << "piston_area: " << plant.geometry.piston_area << "\nstroke_length: " << plant.geometry.stroke_length
        << "\nsupply_pressure: " << plant.geometry.supply_pressure << "\n";
   // Several joints on the position topic: the cushion's name, as its user would configure it.
   if (o.recording.joints.size() > 1) file << "joint_name: " << o.recording.cushion_joint << "\n";
-  return static_cast<bool>(file);
+  closeChecked(file, o.config_out);
 }
 
 // The plant's true parameters, by name (every one the simulated model has, effects included), and its valve.
-bool writeTruth(const Options& o, const SimulatorConfig& plant) {
+void writeTruth(const Options& o, const SimulatorConfig& plant, const std::string& path) {
   const DieCushionSimulator probe(plant);
-  std::ofstream file(o.truth_out);
+  std::ofstream file(path);
   file.precision(10);
   file << "# The true parameters of the press simulate_bag recorded (" << pressClassName(o.press)
        << ", variation " << o.variation << ").\n";
@@ -246,7 +256,7 @@ bool writeTruth(const Options& o, const SimulatorConfig& plant) {
          << "\neffects_from_time: " << o.effects_from_cycle * probe.program().cycleDuration() - o.start_offset
          << "\n";
   }
-  return static_cast<bool>(file);
+  closeChecked(file, o.truth_out);
 }
 
 /// The press cycles; returns where an appended test starts [s of the recording].
@@ -383,23 +393,27 @@ int run(int argc, char** argv) {
     return 2;
   }
   const SimulatorConfig plant = buildPlant(o);
-  for (const auto& [path, write] :
-       {std::make_pair(o.config_out, &writeConfig), std::make_pair(o.truth_out, &writeTruth)}) {
-    if (!path.empty() && !write(o, plant)) {
-      std::cerr << "simulate_bag: cannot write " << path << "\n";
-      return 1;
-    }
-  }
   if (!(plant.sensors.valve_rate <= 1.0 / plant.control_period + 1e-9)) {
     std::cerr << "simulate_bag: the valve rate cannot exceed the 1000 Hz command rate\n";
     return 2;
   }
   try {
-    BagRecorder recorder(o.out, o.epoch, o.recording);
-    double next_block = recordPressCycles(o, plant, recorder);
-    if (o.sweep) next_block = recordSweep(o, plant, next_block, recorder);
-    if (o.step_test != 0.0) recordStepTest(o, plant, next_block, recorder);
-    recorder.close();
+    // A bag cut by a full disk reads as a valid, shorter recording: nothing takes its final name before
+    // everything is whole; a failure removes the temporary files (OutputFiles' destructor).
+    OutputFiles files;
+    if (!o.config_out.empty()) writeConfig(o, plant, files.add(o.config_out));
+    if (!o.truth_out.empty()) writeTruth(o, plant, files.add(o.truth_out));
+    {
+      BagRecorder recorder(files.add(o.out), o.epoch, o.recording);
+      double next_block = recordPressCycles(o, plant, recorder);
+      if (o.sweep) next_block = recordSweep(o, plant, next_block, recorder);
+      if (o.step_test != 0.0) recordStepTest(o, plant, next_block, recorder);
+      recorder.close();
+    }
+    files.commit();
+  } catch (const WriteError& e) {
+    std::cerr << "simulate_bag: " << e.what() << "\n";
+    return 4;
   } catch (const std::exception& e) {
     std::cerr << "simulate_bag: " << e.what() << "\n";
     return 1;
