@@ -214,6 +214,7 @@ void emitInput(YAML::Emitter& out, const AnalysisInput& input, const OfflineResu
   out << YAML::Key << "start" << YAML::Value << formatted("%.3f", input.start);
   out << YAML::Key << "duration" << YAML::Value << input.duration;
   out << YAML::Key << "messages" << YAML::Value << r.messages;
+  out << YAML::Key << "records_unreadable" << YAML::Value << input.records_unreadable;
   out << YAML::Key << "topics" << YAML::Value << YAML::BeginMap;
   for (int s = 0; s < kInputStreamCount; ++s) {
     const StreamHealth& h = r.health[s];

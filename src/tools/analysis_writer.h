@@ -17,6 +17,9 @@ struct AnalysisInput {
   /// Messages that gave no sample (damaged, or a JointState without the cushion's joint or its position):
   /// counted with the resampler's rejections, as the node counts them.
   std::uint64_t unusable[kInputStreamCount] = {0, 0, 0};
+  /// Message records in the file that could not be read (the one a killed recording's end cuts, damaged
+  /// ones outside the index's count): summary.yaml's input.records_unreadable.
+  std::uint64_t records_unreadable = 0;
   double duration = 0.0;  ///< [s] of the bag
   double start = 0.0;     ///< [s] record time of its first message (seconds since the epoch)
   std::string joint_name;  ///< configured cushion joint ("" = the only one / position[0])
