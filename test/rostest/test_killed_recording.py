@@ -7,6 +7,7 @@ read (the one the kill cut, if any) and never that every message was read.
 
 DCI_KILLED_RECORDING_MB sets the size at which the recorder is killed (default 2.0 MB, about 7 s of the
 three 1 kHz topics; 7.5 MB is about the 25 s of the issue)."""
+import atexit
 import os
 import shutil
 import signal
@@ -17,7 +18,6 @@ import tempfile
 import time
 import unittest
 
-import rospy
 import rostest
 import yaml
 
@@ -76,8 +76,8 @@ def walk(path):
 
 class KilledRecording(unittest.TestCase):
     def setUp(self):
-        rospy.init_node("test_killed_recording", anonymous=True)
         self.directory = tempfile.mkdtemp(prefix="killed_recording_")
+        atexit.register(shutil.rmtree, self.directory, True)  # also when the test is stopped from outside
 
     def tearDown(self):
         shutil.rmtree(self.directory, ignore_errors=True)
@@ -89,14 +89,24 @@ class KilledRecording(unittest.TestCase):
         # process group, the way a shutdown or the OOM killer ends them.
         recorder = subprocess.Popen(["rosbag", "record", "--quiet", "-O", bag] + TOPICS,
                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-        # Until the file holds what is asked for (in wall time: the recorder and the simulator run on it).
-        deadline = time.time() + 90.0
-        while time.time() < deadline:
-            if os.path.exists(active) and os.path.getsize(active) >= megabytes * 1e6:
-                break
-            time.sleep(0.05)
-        os.killpg(recorder.pid, signal.SIGKILL)
-        recorder.wait()
+        try:
+            # Until the file holds what is asked for (in wall time: the recorder and the simulator run on it),
+            # or it has stopped growing for 10 s (the simulator gone: then the assertion below fails).
+            deadline = time.time() + 90.0
+            size, grown = 0, time.time()
+            while time.time() < deadline and recorder.poll() is None and time.time() - grown < 10.0:
+                now = os.path.getsize(active) if os.path.exists(active) else 0
+                if now >= megabytes * 1e6:
+                    break
+                if now > size:
+                    size, grown = now, time.time()
+                time.sleep(0.05)
+        finally:  # also when the test itself is stopped (SIGINT, or SIGTERM below): no recorder left behind
+            try:
+                os.killpg(recorder.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            recorder.wait()
         self.assertTrue(os.path.exists(active), "rosbag record leaves NAME.bag.active when killed")
         self.assertGreaterEqual(os.path.getsize(active), megabytes * 1e6, "the recorder wrote in time")
         return active
@@ -144,4 +154,6 @@ class KilledRecording(unittest.TestCase):
 
 
 if __name__ == "__main__":
+    # roslaunch stops a test with SIGINT, then SIGTERM: both unwind, so that the recorder is killed.
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(1))
     rostest.rosrun("die_cushion_ident", "killed_recording", KilledRecording)
