@@ -4,19 +4,20 @@
 
 #include <charconv>
 #include <cmath>
-#include <future>
-#include <fstream>
 #include <cstdio>
+#include <fstream>
+#include <future>
 #include <regex>
 #include <stdexcept>
 
+#include "bag_stream_writer.h"
 #include "die_cushion_ident/FrequencyResponse.h"
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
-#include "bag_stream_writer.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
+#include "output_files.h"
 
 namespace die_cushion_ident {
 
@@ -100,8 +101,7 @@ void writeSummary(const std::string& path, const AnalysisInput& input, const Ide
   }
   std::ofstream file(path);
   file << "# die_cushion_ident analyze_bag summary (SI units; see README.md)\n" << text << "\n";
-  file.close();
-  if (!file) throw std::runtime_error("cannot write " + path + " (disk full or no permission?)");
+  closeChecked(file, path);
 }
 
 // The resolution study's candidate periods, each with its free run's error and change to the next finer.
@@ -214,6 +214,7 @@ void emitInput(YAML::Emitter& out, const AnalysisInput& input, const OfflineResu
   out << YAML::Key << "start" << YAML::Value << formatted("%.3f", input.start);
   out << YAML::Key << "duration" << YAML::Value << input.duration;
   out << YAML::Key << "messages" << YAML::Value << r.messages;
+  out << YAML::Key << "records_unreadable" << YAML::Value << input.records_unreadable;
   out << YAML::Key << "topics" << YAML::Value << YAML::BeginMap;
   for (int s = 0; s < kInputStreamCount; ++s) {
     const StreamHealth& h = r.health[s];
@@ -479,14 +480,6 @@ std::ostream& operator<<(std::ostream& out, Field f) {
   return out;
 }
 
-// The suffix of a file being written: it takes its final name only when whole.
-constexpr const char* kPartial = ".partial";
-
-void closeChecked(std::ofstream& file, const std::string& path) {
-  file.close();
-  if (!file) throw std::runtime_error("cannot write " + path + " (disk full or no permission?)");
-}
-
 /// A CSV file written through std::to_chars into a buffer: the same text as an ostream with precision 10
 /// (%.10g; stamps %.6f) at a fraction of the cost, which matters for the hundreds of thousands of rows of
 /// an hour's recording.
@@ -573,11 +566,12 @@ void writeComparisonCsv(const std::string& path, const OfflineResult& r, const s
   csv.close();
 }
 
-// Written under "name.partial" (AnalysisWriter renames them when the run is complete); the names written.
-std::vector<std::string> writeSmallCsvs(const std::string& directory, const OfflineResult& r) {
+// Written under their temporary names in `files` (renamed when the run is complete); the names written.
+std::vector<std::string> writeSmallCsvs(const std::string& directory, const OfflineResult& r,
+                                        OutputFiles& files) {
   std::vector<std::string> written;
   if (r.valve) {
-    std::ofstream csv(directory + "/frequency_response.csv" + kPartial);
+    std::ofstream csv(files.add(directory + "/frequency_response.csv"));
     csv << "frequency,re,im,magnitude,phase,magnitude_std,phase_std,harmonic_distortion,distorted\n";
     for (const auto& p : r.valve->points) {
       csv << Field{p.frequency} << "," << Field{p.re} << "," << Field{p.im} << "," << Field{p.magnitude} << ","
@@ -589,7 +583,7 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
     // The fitted model's curve as the bag's FrequencyResponse message carries it, for the report's Bode plot.
     const FrequencyResponse response = toFrequencyResponseMsg(r.valve->points, r.valve->fit, "finished", ros::Time());
     if (!response.fit_frequency.empty()) {
-      CsvFile fit(directory + "/valve_fit.csv" + kPartial);
+      CsvFile fit(files.add(directory + "/valve_fit.csv"));
       fit.text("frequency,magnitude,phase").endLine();
       for (std::size_t k = 0; k < response.fit_frequency.size(); ++k) {
         fit.field(response.fit_frequency[k]).comma().field(response.fit_magnitude[k]).comma();
@@ -601,7 +595,7 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
   }
   if (!r.ranking.proposals.empty()) {
     // For the report: each proposal's residual against its signal, with the fitted term drawn over it.
-    std::ofstream csv(directory + "/proposals.csv" + kPartial);
+    std::ofstream csv(files.add(directory + "/proposals.csv"));
     csv << "expression,signal,signal_value,residual_flow,term_flow\n";
     csv.precision(8);
     for (const auto& p : r.ranking.proposals) {
@@ -677,26 +671,25 @@ AnalysisWriter::AnalysisWriter(const std::string& directory, const Identificatio
   // describe another recording), whole or partial.
   for (const char* name : kOutputs) {
     std::remove((directory + "/" + name).c_str());
-    std::remove((directory + "/" + name + kPartial).c_str());
+    std::remove((directory + "/" + name + kPartialSuffix).c_str());
   }
-  bag_ = std::make_unique<AnalysisBag>(directory + "/analysis.bag" + kPartial);
+  bag_ = std::make_unique<AnalysisBag>(files_.add(directory + "/analysis.bag"));
+  const std::string comparison = files_.add(directory + "/model_comparison.csv");
+  const std::string estimates = files_.add(directory + "/estimates.csv");
   bag_series_ = std::async(std::launch::async, [this, &result, &grid] { bag_->writeSeries(result, grid, model_); });
-  comparison_csv_ = std::async(std::launch::async, [this, &result, &grid] {
-    writeComparisonCsv(directory_ + "/model_comparison.csv" + kPartial, result, grid);
-  });
-  estimates_csv_ = std::async(std::launch::async, [this, &result] {
-    writeEstimatesCsv(directory_ + "/estimates.csv" + kPartial, result, model_);
-  });
+  comparison_csv_ = std::async(
+      std::launch::async, [&result, &grid, comparison] { writeComparisonCsv(comparison, result, grid); });
+  estimates_csv_ = std::async(std::launch::async,
+                              [this, &result, estimates] { writeEstimatesCsv(estimates, result, model_); });
 }
 
 AnalysisWriter::~AnalysisWriter() {
   for (auto* running : {&bag_series_, &comparison_csv_, &estimates_csv_}) {
     if (running->valid()) running->wait();
   }
-  // A run that failed (a full disk, an error) leaves no file under a final name, and no partial one.
-  if (!finished_) {
-    for (const char* name : kOutputs) std::remove((directory_ + "/" + name + kPartial).c_str());
-  }
+  // A run that failed (a full disk, an error) leaves no file under a final name, and no partial one: the
+  // bag is closed (bag_ before files_), then files_ removes every temporary file.
+  bag_.reset();
 }
 
 void AnalysisWriter::finish(const AnalysisInput& input, const OfflineResult& result) {
@@ -706,17 +699,12 @@ void AnalysisWriter::finish(const AnalysisInput& input, const OfflineResult& res
   bag_->writeValve(result);
   bag_->close();
   std::vector<std::string> outputs = {"analysis.bag", "estimates.csv", "model_comparison.csv"};
-  for (const std::string& name : writeSmallCsvs(directory_, result)) outputs.push_back(name);
+  for (const std::string& name : writeSmallCsvs(directory_, result, files_)) outputs.push_back(name);
   outputs.push_back("summary.yaml");
-  writeSummary(directory_ + "/summary.yaml" + kPartial, input, config_, result, outputs);
-  // Renamed when all are whole, summary.yaml last: a summary under its name means the run completed.
-  for (const std::string& name : outputs) {
-    const std::string path = directory_ + "/" + name;
-    if (std::rename((path + kPartial).c_str(), path.c_str()) != 0) {
-      throw std::runtime_error("cannot rename " + path + kPartial + " to " + path);
-    }
-  }
-  finished_ = true;
+  writeSummary(files_.add(directory_ + "/summary.yaml"), input, config_, result, outputs);
+  // On the disk and renamed when all are whole, summary.yaml last: a summary under its name means the run
+  // completed.
+  files_.commit();
 }
 
 }  // namespace die_cushion_ident

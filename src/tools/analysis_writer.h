@@ -5,6 +5,7 @@
 #include <string>
 
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "output_files.h"
 
 namespace die_cushion_ident {
 
@@ -16,6 +17,9 @@ struct AnalysisInput {
   /// Messages that gave no sample (damaged, or a JointState without the cushion's joint or its position):
   /// counted with the resampler's rejections, as the node counts them.
   std::uint64_t unusable[kInputStreamCount] = {0, 0, 0};
+  /// Message records in the file that could not be read (the one a killed recording's end cuts, damaged
+  /// ones outside the index's count): summary.yaml's input.records_unreadable.
+  std::uint64_t records_unreadable = 0;
   double duration = 0.0;  ///< [s] of the bag
   double start = 0.0;     ///< [s] record time of its first message (seconds since the epoch)
   std::string joint_name;  ///< configured cushion joint ("" = the only one / position[0])
@@ -25,11 +29,12 @@ struct AnalysisInput {
 /// comparison at 100 Hz and the valve's frequency response, on the input's time stamps) and CSV files.
 ///
 /// In two steps, because writing an hour's estimates and comparison into the bag takes seconds: the
-/// constructor starts writing them (and their CSVs) on their own threads as soon as OfflineAnalysis::identify()
-/// has made them final, so that it runs while OfflineAnalysis::explain() ranks the effects; finish() waits for
-/// them and writes the rest. Every file is written as NAME.partial and renamed when all are whole (summary.yaml
-/// last, listing them under `outputs`); a failed run leaves neither. Throws std::runtime_error when a file
-/// cannot be written.
+/// constructor starts writing them (and their CSVs) on their own threads as soon as
+/// OfflineAnalysis::identify() has made them final, so that it runs while OfflineAnalysis::explain() ranks
+/// the effects; finish() waits for them and writes the rest. Every file is written whole or not at all
+/// (OutputFiles: NAME.partial, on the disk and renamed when all are whole, summary.yaml last, listing them
+/// under `outputs`); a failed run leaves neither. Throws WriteError (a std::runtime_error) when a file cannot
+/// be written.
 class AnalysisWriter {
  public:
   /// Removes a previous run's outputs from `directory` (which must exist) and starts writing. The result's
@@ -42,12 +47,12 @@ class AnalysisWriter {
   void finish(const AnalysisInput& input, const OfflineResult& result);
 
  private:
+  OutputFiles files_;  // first: destroyed last, after the bag's file is closed
   std::string directory_;
   IdentificationConfig config_;
   HydraulicModel model_;  // read only, by the threads that write the series
   std::unique_ptr<class AnalysisBag> bag_;
   std::future<void> bag_series_, comparison_csv_, estimates_csv_;
-  bool finished_ = false;  // every output renamed to its final name
 };
 
 }  // namespace die_cushion_ident

@@ -101,7 +101,10 @@ struct BagPass {
   std::string read_error;  // the bag could not be read to the end
   std::vector<BagStreamReader::Damage> damage;  // parts that failed their checks (the rest was read)
   std::uint64_t messages_missing = 0;           // listed by the index, not delivered by the chunks
+  std::uint64_t records_unreadable = 0;         // message records in the file that could not be read
+  std::uint64_t messages_read = 0;              // every topic's
   bool cut_off = false, data_lost = false;
+  bool unclosed = false;  // killed while recording: the last chunk still open (rosbag record's .bag.active)
   std::uint64_t bytes_read = 0, file_size = 0;
   std::set<std::string> present;    // input topics seen
   std::string listing;              // every topic of the bag, for a message when none is an input
@@ -271,6 +274,9 @@ std::unique_ptr<BagStreamReader> openBag(const std::string& path) {
 void keepReadersFindings(const BagStreamReader& reader, BagPass& pass) {
   pass.damage = reader.damage();
   pass.messages_missing = reader.messagesMissing();
+  pass.records_unreadable = reader.recordsUnreadable();
+  pass.messages_read = reader.messages();
+  pass.unclosed = reader.unclosed();
   pass.cut_off = reader.cutOff();
   pass.data_lost = reader.dataLost();
   pass.bytes_read = reader.bytesRead();
@@ -335,6 +341,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   }
   to_analysis.finish();  // the analysis's exception, if any, from here on this thread
   keepReadersFindings(*reader, pass);
+  input.records_unreadable = pass.records_unreadable;
   pass.joint_ambiguity = joints.ambiguity();
   return pass;
 }
@@ -425,6 +432,27 @@ void skippedMessages(const BagPass& pass, const std::string (&names)[kInputStrea
     warnings->push_back({WarningCode::kJointAmbiguous, pass.joint_ambiguity});
 }
 
+// "1 record" / "N records".
+std::string records(std::uint64_t n) { return std::to_string(n) + (n == 1 ? " record" : " records"); }
+
+// A recording killed while recording: what was read of it, in words; true where a record could not be read.
+bool unclosedWarning(const BagPass& pass, std::vector<AnalysisWarning>* warnings) {
+  std::string text = pass.read_error + ": ";
+  if (pass.records_unreadable > 0) {
+    text += std::to_string(pass.messages_read) +
+            " messages were read, its open last chunk to its last whole record; " +
+            records(pass.records_unreadable) + " could not be read";
+  } else if (pass.data_lost) {
+    text += std::to_string(pass.messages_read) + " messages were read, up to its open last chunk";
+  } else {
+    text += "every whole record of the file was read (" + std::to_string(pass.messages_read) +
+            " messages), its open last chunk included";
+  }
+  text += "; what the recorder had not written when it stopped is not in the file";
+  warnings->push_back({WarningCode::kBagDamaged, text});
+  return pass.data_lost || pass.records_unreadable > 0;
+}
+
 // What the reading skipped, lost or could not read, in words; true where the result is partial.
 bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStreamCount],
                      std::vector<AnalysisWarning>* warnings,
@@ -440,11 +468,15 @@ bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStrea
     const bool in_messages = std::any_of(pass.damage.begin(), pass.damage.end(),
                                          [](const BagStreamReader::Damage& d) { return d.in_messages; });
     std::string lost = "every message was read (the damage lies in the index or the headers)";
-    if (in_messages) {
+    if (in_messages || pass.records_unreadable > 0) {
       lost = (pass.messages_missing > 0 ? std::to_string(pass.messages_missing) + " messages the index lists"
                                         : std::string("the messages")) +
-             " were lost in the damaged parts; the reading went on at the next record that holds together";
+             " were lost in the damaged parts" +
+             (pass.records_unreadable > 0 ? " (" + records(pass.records_unreadable) + " could not be read)"
+                                          : "") +
+             "; the reading went on at the next record that holds together";
     }
+    if (pass.unclosed) lost += "; the recording was not closed (its last chunk still open)";
     warnings->push_back({WarningCode::kBagDamaged,
                          "the bag is damaged (" + where + "): " + lost + ", and what was read is analysed"});
     log(warnings->back().text);
@@ -452,16 +484,21 @@ bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStrea
   }
   if (pass.read_error.empty()) return false;
   bool partial = false;
-  if (pass.cut_off && !pass.data_lost) {
+  if (pass.unclosed) {
+    partial = unclosedWarning(pass, warnings);
+  } else if (pass.cut_off && !pass.data_lost) {
     // Every message was read; only the index behind them is gone.
     warnings->push_back({WarningCode::kBagDamaged, "the bag lost its index (" + pass.read_error +
                                                        "): every message was read from its chunks"});
   } else {
     char share[64];
     std::snprintf(share, sizeof(share), "%.1f", 100.0 * pass.bytes_read / std::max<std::uint64_t>(pass.file_size, 1));
+    const std::string unread = pass.records_unreadable > 0
+                                   ? " (" + records(pass.records_unreadable) + " cut there could not be read)"
+                                   : "";
     warnings->push_back({WarningCode::kBagDamaged,
                          pass.cut_off ? "the bag was cut off while recording (" + pass.read_error +
-                                            "): the analysis covers what was recorded before the cut"
+                                            "): the analysis covers what was recorded before the cut" + unread
                                       : "the bag could not be read to the end (" + pass.read_error +
                                             "): the analysis covers the first " + share +
                                             " % of it, read before the damage"});

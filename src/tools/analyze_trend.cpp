@@ -3,7 +3,8 @@
 //                                          [--false-alarms-per-year F] [--recordings-per-year R] [--quiet]
 // Analyses every bag with analyze_bag (side by side, one thread each), keeps each bag's summary.yaml under
 // DIR/bags/ and reuses it while the bag and the settings are unchanged, then writes DIR/trend.csv (a row per
-// recording) and DIR/trend.yaml (the changes found: doc/condition_monitoring.md).
+// recording) and DIR/trend.yaml (the changes found: doc/condition_monitoring.md). Every file is written whole
+// or not at all (OutputFiles); a full disk is exit 4 and is not remembered as a failed bag.
 #include <sys/wait.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
@@ -31,6 +32,7 @@
 #include "die_cushion_ident/core/analysis/verdict.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
+#include "output_files.h"
 
 namespace fs = std::filesystem;
 
@@ -46,7 +48,8 @@ const char* const kUsage =
     "  in the parameters and verdicts, with the recording they began in). A bag that cannot be analysed is\n"
     "  reported and skipped. A: probability of reporting any change on a press without one, per run\n"
     "  (default 0.01). Exit 0, 2 on bad arguments or no bag, 3 when no bag could be analysed, 4 when the\n"
-    "  results cannot be written.\n";
+    "  results (analyze_bag's or the trend's) cannot be written: then no file is left under its name unless\n"
+    "  whole, a previous trend stays as it was, and the bags concerned are analysed again by the next run.\n";
 
 struct Options {
   std::vector<std::string> inputs;
@@ -160,22 +163,44 @@ std::string analyzeBagPath() {
   return "analyze_bag";
 }
 
+// `command`'s exit status (its wait status) and everything it printed.
+int runCapturing(const std::string& command, std::string* output) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "re");  // not inherited by the other jobs' children
+  if (!pipe) return -1;
+  char buffer[4096];
+  for (std::size_t got; (got = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) output->append(buffer, got);
+  return pclose(pipe);
+}
+
+// One bag through analyze_bag; what it printed kept in analyze_bag.log, then failed.txt (why it failed) and
+// fingerprint.txt (last: the directory is complete and can be reused), each whole. Throws WriteError when
+// analyze_bag could not write its results (exit 4) or a file here cannot be written: nothing is then
+// remembered, and the next run analyses the bag again.
 void analyse(BagJob& job, const Options& o, const std::string& analyze_bag, int threads) {
   const auto started = std::chrono::steady_clock::now();
-  fs::remove_all(job.directory);
-  fs::create_directories(job.directory);
+  std::error_code error;
+  fs::remove_all(job.directory, error);
+  if (!fs::create_directories(job.directory, error) && !fs::is_directory(job.directory)) {
+    throw WriteError("cannot create " + job.directory + ": " + error.message());
+  }
   std::string command = shellQuoted(analyze_bag) + " " + shellQuoted(job.bag) + " --out " +
                         shellQuoted(job.directory) + " --quiet --jobs " + std::to_string(threads);
   if (!o.config.empty()) command += " --config " + shellQuoted(o.config);
   if (o.effects_given) command += " --effects " + shellQuoted(o.effects);
-  const std::string log = job.directory + "/analyze_bag.log";
-  const int status = std::system((command + " > " + shellQuoted(log) + " 2>&1").c_str());
+  std::string text;
+  const int status = runCapturing(command, &text);
   job.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  if (code == 4) {
+    const auto last_line = text.rfind('\n');
+    throw WriteError("the analysis of " + job.bag + " could not be written: " +
+                     (last_line == std::string::npos ? text : text.substr(last_line + 1)));
+  }
+  writeWholeFile(job.directory + "/analyze_bag.log", text.empty() ? text : text + "\n");
   const bool ok = status == 0 && fs::exists(job.directory + "/summary.yaml");
   if (!ok) {
     job.failed = true;
-    std::string text = readFile(log);
-    while (!text.empty() && text.back() == '\n') text.pop_back();
     const auto last_line = text.rfind('\n');
     std::string why = last_line == std::string::npos ? text : text.substr(last_line + 1);
     try {  // a partial result (exit 5) says in its summary what could not run, after the setup warnings
@@ -191,11 +216,10 @@ void analyse(BagJob& job, const Options& o, const std::string& analyze_bag, int 
       if (!said.empty()) why = said.front() + (said.size() > 1 ? " (and " + std::to_string(said.size() - 1) + " more warnings)" : "");
     } catch (const std::exception&) {
     }
-    job.reason = "analyze_bag failed (exit " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                 "): " + why;
-    std::ofstream(job.directory + "/failed.txt") << job.reason << "\n";
+    job.reason = "analyze_bag failed (exit " + std::to_string(code) + "): " + why;
+    writeWholeFile(job.directory + "/failed.txt", job.reason + "\n");
   }
-  std::ofstream(job.directory + "/fingerprint.txt") << job.fingerprint;
+  writeWholeFile(job.directory + "/fingerprint.txt", job.fingerprint);
 }
 
 struct Parameter {
@@ -239,9 +263,10 @@ Recording readRecording(const BagJob& job) {
 
 std::string csvNumber(double v) { return std::isfinite(v) ? formatted("%.9g", v) : ""; }
 
-void writeCsv(const std::string& path, const std::vector<Recording>& rows, const std::vector<std::string>& names,
-              const std::vector<std::string>& effects, const std::string& config_name) {
-  std::ofstream csv(path);
+void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Recording>& rows,
+              const std::vector<std::string>& names, const std::vector<std::string>& effects,
+              const std::string& config_name) {
+  std::ofstream csv(files.add(path));
   csv << "bag,start,start_stamp,duration,config";
   for (const auto& n : names) csv << "," << n << "," << n << "_std";
   csv << ",simulation_error_rms";
@@ -259,7 +284,7 @@ void writeCsv(const std::string& path, const std::vector<Recording>& rows, const
     for (const auto& e : effects) csv << "," << (r.verdicts.count(e) ? r.verdicts.at(e) : "");
     csv << "\n";
   }
-  if (!csv) fail(4, "cannot write " + path + "\n");
+  closeChecked(csv, path);
 }
 
 // Which bags need analysing: a result is reused while its fingerprint (bag size and time, settings) holds.
@@ -427,7 +452,8 @@ int run(int argc, char** argv) {
       if (std::find(effects.begin(), effects.end(), effect) == effects.end()) effects.push_back(effect);
     }
   }
-  writeCsv(o.out + "/trend.csv", rows, names, effects, config_name);
+  OutputFiles files;  // trend.csv and trend.yaml, renamed when both are whole (a failure removes them)
+  writeCsv(files, o.out + "/trend.csv", rows, names, effects, config_name);
 
   // The sequential tests are designed for the false alarms per press-year allowed, shared by every
   // parameter tested.
@@ -443,8 +469,12 @@ int run(int argc, char** argv) {
   int changes = emitParameterChanges(rows, names, units, detection, yaml, log);
   changes += emitVerdictChanges(rows, effects, yaml, log);
   yaml << YAML::EndMap;
-  std::ofstream(o.out + "/trend.yaml") << "# die_cushion_ident analyze_trend (doc/condition_monitoring.md)\n"
-                                       << yaml.c_str() << "\n";
+  {
+    std::ofstream trend(files.add(o.out + "/trend.yaml"));
+    trend << "# die_cushion_ident analyze_trend (doc/condition_monitoring.md)\n" << yaml.c_str() << "\n";
+    closeChecked(trend, o.out + "/trend.yaml");
+  }
+  files.commit();
   const std::size_t skipped = jobs.size() - rows.size();
   log(std::to_string(rows.size()) + " recordings in the trend, " + std::to_string(skipped) + " skipped, " +
       std::to_string(changes) + " changes; " + std::to_string(pending.size()) + " analysed in " +
@@ -458,6 +488,9 @@ int run(int argc, char** argv) {
 int main(int argc, char** argv) {
   try {
     return die_cushion_ident::run(argc, argv);
+  } catch (const die_cushion_ident::WriteError& e) {
+    std::cerr << "analyze_trend: " << e.what() << "\n";
+    return 4;
   } catch (const std::exception& e) {
     std::cerr << "analyze_trend: " << e.what() << "\n";
     return 3;

@@ -588,11 +588,56 @@ std::optional<BagStreamReader::Next> BagStreamReader::readOtherRecord(std::uint8
     }
     return Next::kRecord;
   }
+  if (op == kOpMessageData) {
+    // Outside any chunk (and not after an open chunk's header): damage, and a message not delivered.
+    damage_.push_back({record_start, "a message record outside any chunk", true});
+    ++records_unreadable_;
+    return Next::kRecord;
+  }
   if (op != kOpChunk) {
     damage_.push_back({record_start, "a record of an unknown kind"});
     return Next::kRecord;
   }
   return std::nullopt;
+}
+
+BagStreamReader::Next BagStreamReader::readOpenChunkRecord(std::uint8_t op, Fields& fields,
+                                                           const std::vector<std::uint8_t>& data,
+                                                           std::uint64_t record_start, bool truncated,
+                                                           const OnMessage& on_message,
+                                                           const OnConnection& on_connection) {
+  if (truncated) {  // the record the end of the file cuts: where the recorder's last write ended
+    openChunkCut(record_start);
+    return Next::kStop;
+  }
+  if (op == kOpConnection) {
+    if (!addConnection(fields, data.data(), data.size(), on_connection)) {
+      chunkDamaged(record_start, "a damaged connection record (in the open chunk)");
+    }
+    return Next::kRecord;
+  }
+  const std::string& conn = fields["conn"];
+  const std::string& time = fields["time"];
+  const Connection* connection =
+      conn.size() == 4 && time.size() == 8
+          ? knownConnection(readU32(reinterpret_cast<const std::uint8_t*>(conn.data())), on_connection)
+          : nullptr;
+  if (!connection) {
+    chunkDamaged(record_start, conn.size() == 4 && time.size() == 8
+                                   ? "a message of an unknown connection (in the open chunk)"
+                                   : "a damaged message record (in the open chunk)");
+    ++records_unreadable_;
+    return Next::kRecord;
+  }
+  const auto* t = reinterpret_cast<const std::uint8_t*>(time.data());
+  Message message;
+  message.connection = connection;
+  message.time = readU32(t) + 1e-9 * readU32(t + 4);
+  message.data = data.data();
+  message.size = static_cast<std::uint32_t>(data.size());
+  ++messages_;
+  on_message(message);
+  return Next::kRecord;
 }
 
 BagStreamReader::Next BagStreamReader::readCompressedChunk(const std::string& compression, std::uint32_t size,
@@ -646,6 +691,20 @@ BagStreamReader::Next BagStreamReader::readChunk(Fields& fields, std::size_t hea
   const std::string& size_field = fields["size"];
   const std::uint32_t size =
       size_field.size() == 4 ? readU32(reinterpret_cast<const std::uint8_t*>(size_field.data())) : 0;
+  if (size_field.size() == 4 && size == 0 && data.empty() && !truncated) {
+    // rosbag writes a chunk's header with size 0 when it opens the chunk, writes the records after it as
+    // they come and fills the size in when it closes the chunk: this one was still open when the recorder
+    // was killed. Uncompressed, its records are read one by one as they follow; compressed, they are one
+    // stream that cannot be expanded without its end.
+    open_chunk_seen_ = true;
+    if (compression == "none") {
+      in_open_chunk_ = true;
+      return Next::kRecord;
+    }
+    open_chunk_compression_ = compression;
+    data_lost_ = cut_off_ = true;
+    return Next::kStop;
+  }
   if (size_field.size() != 4 || size > kMaxRecord ||
       (compression == "none" && !truncated && size != data.size())) {
     damaged_chunks_.insert(record_start);
@@ -665,7 +724,10 @@ BagStreamReader::Next BagStreamReader::readChunk(Fields& fields, std::size_t hea
     if (parseRecords(data.data(), data.size(), on_message, on_connection, start, truncated, &damaged_at,
                      &what))
       break;
-    if (truncated) break;  // the chunk cut off while recording: its last record is the cut
+    if (truncated) {  // the chunk cut off while recording: its last record is the cut, not read
+      ++records_unreadable_;
+      break;
+    }
     chunkDamaged(chunk_data + damaged_at, what);
     start = findRecordInChunk(data.data(), data.size(), damaged_at + 1);
   }
@@ -677,9 +739,22 @@ bool BagStreamReader::finishRead(bool truncated) {
     if (error_.empty()) error_ = damage_[0].what + atByte(damage_[0].position);
     return false;
   }
-  // Cut off: inside a record, or short of the index the header promised (chunk info records missing).
-  cut_off_ = cut_off_ || truncated || position_ < file_size_ || chunk_infos_ < chunk_count_;
+  // Cut off: inside a record, or short of the index the header promised (chunk info records missing), or
+  // never closed.
+  cut_off_ =
+      cut_off_ || truncated || position_ < file_size_ || chunk_infos_ < chunk_count_ || open_chunk_seen_;
   if (!cut_off_) return true;
+  if (open_chunk_seen_) {
+    const std::string unclosed =
+        "the recording was not closed (killed while recording: its last chunk still open, no index)";
+    if (!open_chunk_compression_.empty()) {
+      return fail(unclosed + "; that chunk is " + open_chunk_compression_ +
+                  "-compressed and cannot be expanded without its end: its " +
+                  std::to_string(file_size_ - position_) + " bytes are not read");
+    }
+    return fail(unclosed + (data_lost_ ? ", and the file ends inside the record"
+                                       : ", and the file ends after a whole record"));
+  }
   // Before the index (or with none: cut while recording) messages were lost; inside it, none were.
   data_lost_ = data_lost_ || index_position_ == 0 || position_ < index_position_;
   return fail(data_lost_ ? "the bag ends inside its messages (cut off while recording or copying)"
@@ -694,7 +769,10 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
     const std::uint64_t record_start = position_;
     std::string what;
     const RecordRead result = readRecord(&header, &data, &truncated, &what);
-    if (result == RecordRead::kEnd) break;
+    if (result == RecordRead::kEnd) {
+      if (in_open_chunk_ && position_ < file_size_) openChunkCut(record_start);  // 1-3 bytes of a length
+      break;
+    }
     if (result == RecordRead::kCut) {
       // Where a chunk follows, the length was damaged, not the file cut.
       if (findChunkHeader(record_start + 1) != 0 &&
@@ -702,6 +780,7 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
         continue;
       }
       cut_off_ = true;
+      if (in_open_chunk_) openChunkCut(record_start);
       break;
     }
     if (result == RecordRead::kDamaged) {
@@ -714,6 +793,15 @@ bool BagStreamReader::read(const std::function<void(const Message&)>& on_message
       break;
     }
     const auto op = static_cast<std::uint8_t>(fields["op"][0]);
+    if (in_open_chunk_) {
+      if (op == kOpMessageData || op == kOpConnection) {
+        const Next next =
+            readOpenChunkRecord(op, fields, data, record_start, truncated, on_message, on_connection);
+        if (next == Next::kStop) break;
+        continue;
+      }
+      in_open_chunk_ = false;  // a record no chunk holds: the open chunk ended before it
+    }
     std::optional<Next> next = readOtherRecord(op, fields, data, record_start, truncated, on_connection);
     if (!next) {
       next =

@@ -16,7 +16,9 @@ namespace die_cushion_ident {
 ///   per message in memory: 0.7 GB for an hour of three 1 kHz topics);
 /// - every length is checked against what is there, so a damaged or cut-off part ends the reading with a
 ///   reason (error()) instead of a crash, and everything before it is delivered;
-/// - a bag cut off while recording (no index) needs no repair: its chunks are read as they are.
+/// - a bag cut off while recording (no index) needs no repair: its chunks are read as they are;
+/// - a recording killed before it was closed (`rosbag record`'s NAME.bag.active after SIGKILL) is read to
+///   its last whole message: the records after the open chunk's header (size 0) are that chunk's messages.
 /// Chunks may be uncompressed, bz2 or lz4. Messages come in the order they were recorded.
 class BagStreamReader {
  public:
@@ -60,6 +62,14 @@ class BagStreamReader {
   /// record was a chunk (messages lost), not the index at the end.
   bool cutOff() const { return cut_off_; }
   bool dataLost() const { return data_lost_; }
+  /// True when the last chunk was still open: its header says size 0 (rosbag fills the size in when it closes
+  /// the chunk) and its records follow it to where the file ends; the recorder was killed before it could
+  /// close the bag. cutOff() is then true as well; dataLost() where a record could not be read.
+  bool unclosed() const { return open_chunk_seen_; }
+  /// Message records (or parts of one) the file holds that could not be delivered: the record the end of
+  /// the file cuts (a recording killed or cut off mid-record), a damaged one in an open chunk, one outside
+  /// any chunk. Messages lost inside damaged closed chunks are counted by messagesMissing().
+  std::uint64_t recordsUnreadable() const { return records_unreadable_; }
   std::uint64_t bytesRead() const { return position_; }
   std::uint64_t fileSize() const { return file_size_; }
   std::uint64_t messages() const { return messages_; }
@@ -94,6 +104,16 @@ class BagStreamReader {
   Next readChunk(Fields& fields, std::size_t header_size, std::vector<std::uint8_t>& data,
                  std::vector<std::uint8_t>& chunk, std::uint64_t record_start, bool truncated,
                  const OnMessage& on_message, const OnConnection& on_connection);
+  // A record after the open chunk's header (a message or a connection): delivered as the chunk's.
+  Next readOpenChunkRecord(std::uint8_t op, Fields& fields, const std::vector<std::uint8_t>& data,
+                           std::uint64_t record_start, bool truncated, const OnMessage& on_message,
+                           const OnConnection& on_connection);
+  // The end of the file inside the open chunk's record at `record_start`: that record is not read.
+  void openChunkCut(std::uint64_t record_start) {
+    ++records_unreadable_;
+    data_lost_ = cut_off_ = true;
+    position_ = record_start;  // read up to the record, for the error's "at byte"
+  }
   // A compressed chunk's records, expanded; false where they do not expand.
   Next readCompressedChunk(const std::string& compression, std::uint32_t size,
                            std::vector<std::uint8_t>& data, std::vector<std::uint8_t>& chunk,
@@ -131,6 +151,11 @@ class BagStreamReader {
   std::uint32_t chunk_count_ = 0, chunk_infos_ = 0;
   std::vector<Damage> damage_;
   std::uint64_t messages_missing_ = 0;
+  std::uint64_t records_unreadable_ = 0;
+  // The last chunk was still open (header size 0): its records are read as they come (in_open_chunk_) up
+  // to the first record that cannot belong to a chunk; compressed, its bytes cannot be expanded.
+  bool in_open_chunk_ = false, open_chunk_seen_ = false;
+  std::string open_chunk_compression_;
   // Of the chunk being read (and after it, for its index records): where it began, and each message's
   // (connection, time in ns, offset in the chunk's records) in file order.
   struct IndexedMessage {

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "output_files.h"
+
 namespace die_cushion_ident {
 
 namespace {
@@ -98,7 +100,7 @@ void BagStreamWriter::putBagHeader(std::uint64_t index_position) {
 
 BagStreamWriter::BagStreamWriter(const std::string& path) : path_(path), file_buffer_(1 << 20) {
   file_ = std::fopen(path.c_str(), "wb");
-  if (!file_) throw std::runtime_error("cannot open " + path + " for writing: " + std::strerror(errno));
+  if (!file_) throw WriteError("cannot write " + path + ": " + std::strerror(errno));
   std::setvbuf(file_, file_buffer_.data(), _IOFBF, file_buffer_.size());
   chunk_.reserve(kChunkThreshold + 64 * 1024);
   put(kMagic, sizeof(kMagic) - 1);
@@ -221,17 +223,20 @@ void BagStreamWriter::close() {
   }
   // The header again, now with the index's position, over the placeholder.
   if (std::fseek(file_, static_cast<long>(sizeof(kMagic) - 1), SEEK_SET) != 0) {
-    throw std::runtime_error("cannot complete " + path_ + ": " + std::strerror(errno));
+    throw WriteError("cannot write " + path_ + " (completing it): " + std::strerror(errno));
   }
   putBagHeader(index_position);
-  if (std::fflush(file_) != 0 || std::ferror(file_)) {
-    throw std::runtime_error("cannot write " + path_ + ": " + std::strerror(errno));
-  }
+  const bool written = std::fflush(file_) == 0 && !std::ferror(file_);
+  const int error = errno;
+  const bool closed = std::fclose(file_) == 0;
+  file_ = nullptr;
+  if (!written || !closed)
+    throw WriteError("cannot write " + path_ + ": " + std::strerror(written ? errno : error));
 }
 
 void BagStreamWriter::put(const void* data, std::size_t size) {
   if (size > 0 && std::fwrite(data, 1, size, file_) != size) {
-    throw std::runtime_error("cannot write " + path_ + ": " + std::strerror(errno));
+    throw WriteError("cannot write " + path_ + ": " + std::strerror(errno));
   }
   position_ += size;
 }

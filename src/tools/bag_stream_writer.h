@@ -19,8 +19,9 @@ namespace die_cushion_ident {
 /// in the kernel (analyze_bag's analysis.bag for an hour). The result is read by rosbag (C++ and Python),
 /// `rosbag info` and our BagStreamReader alike (test_bag_stream_writer).
 ///
-/// Errors (cannot open, disk full) throw std::runtime_error naming the file; close() must be called to
-/// complete the bag (the destructor closes quietly, without throwing).
+/// Errors (cannot open, disk full) throw WriteError (output_files.h) naming the file; close() must be called
+/// to complete the bag (the destructor closes quietly, without throwing). It writes to the name it is given:
+/// the tools give it a temporary one (OutputFiles) and rename the bag when it is whole.
 class BagStreamWriter {
  public:
   explicit BagStreamWriter(const std::string& path);

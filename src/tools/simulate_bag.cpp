@@ -1,6 +1,7 @@
 // simulate_bag: records the built-in simulator into a bag with the contract's input topics, as a press would
 // record it (press cycles, then optionally a valve sine sweep with the cushion at rest). For trying
-// analyze_bag, for its tests and for the throughput benchmark; no roscore needed.
+// analyze_bag, for its tests and for the throughput benchmark; no roscore needed. The bag, the config and
+// the truth are written whole or not at all (OutputFiles): exit 4 when one cannot be written.
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +17,7 @@
 #include "die_cushion_ident/core/valve/plant_signals.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 #include "message_conversions.h"
+#include "output_files.h"
 
 using namespace die_cushion_ident;
 
@@ -55,7 +57,10 @@ const char* kUsage =
     "    --continuous-command  the sweep's command comes from a continuous signal generator, sampled by the\n"
     "                          valve messages (not held by an amplifier): analyse with valve_command_hold: "
     "0\n"
-    "    --start-offset S      the recording starts S seconds into the press cycle (mid-stroke)\n";
+    "    --start-offset S      the recording starts S seconds into the press cycle (mid-stroke)\n"
+    "  Exit 0; 1 the simulation failed; 2 bad arguments; 4 an output cannot be written (nothing is left "
+    "under\n"
+    "  its name: the bag, config and truth are renamed from temporary names when all are whole).\n";
 
 // The three topics' names in the order of InputStream.
 const char* const kTopics[kInputStreamCount] = {"/die_cushion/pressure", "/die_cushion/position",
@@ -226,21 +231,21 @@ SimulatorConfig buildPlant(const Options& o) {
   return built;
 }
 
-bool writeConfig(const Options& o, const SimulatorConfig& plant) {
-  std::ofstream file(o.config_out);
+void writeConfig(const Options& o, const SimulatorConfig& plant, const std::string& path) {
+  std::ofstream file(path);
   file << "# The press simulate_bag recorded (" << pressClassName(o.press) << ", variation " << o.variation
        << "): its geometry for analyze_bag --config.\n"
        << "piston_area: " << plant.geometry.piston_area << "\nstroke_length: " << plant.geometry.stroke_length
        << "\nsupply_pressure: " << plant.geometry.supply_pressure << "\n";
   // Several joints on the position topic: the cushion's name, as its user would configure it.
   if (o.recording.joints.size() > 1) file << "joint_name: " << o.recording.cushion_joint << "\n";
-  return static_cast<bool>(file);
+  closeChecked(file, o.config_out);
 }
 
 // The plant's true parameters, by name (every one the simulated model has, effects included), and its valve.
-bool writeTruth(const Options& o, const SimulatorConfig& plant) {
+void writeTruth(const Options& o, const SimulatorConfig& plant, const std::string& path) {
   const DieCushionSimulator probe(plant);
-  std::ofstream file(o.truth_out);
+  std::ofstream file(path);
   file.precision(10);
   file << "# The true parameters of the press simulate_bag recorded (" << pressClassName(o.press)
        << ", variation " << o.variation << ").\n";
@@ -255,7 +260,7 @@ bool writeTruth(const Options& o, const SimulatorConfig& plant) {
          << "\neffects_from_time: " << o.effects_from_cycle * probe.program().cycleDuration() - o.start_offset
          << "\n";
   }
-  return static_cast<bool>(file);
+  closeChecked(file, o.truth_out);
 }
 
 /// The press cycles; returns where an appended test starts [s of the recording].
@@ -388,23 +393,27 @@ int run(int argc, char** argv) {
     return 2;
   }
   const SimulatorConfig plant = buildPlant(o);
-  for (const auto& [path, write] :
-       {std::make_pair(o.config_out, &writeConfig), std::make_pair(o.truth_out, &writeTruth)}) {
-    if (!path.empty() && !write(o, plant)) {
-      std::cerr << "simulate_bag: cannot write " << path << "\n";
-      return 1;
-    }
-  }
   if (!(plant.sensors.valve_rate <= 1.0 / plant.control_period + 1e-9)) {
     std::cerr << "simulate_bag: the valve rate cannot exceed the 1000 Hz command rate\n";
     return 2;
   }
   try {
-    BagRecorder recorder(o.out, o.epoch, o.recording);
-    double next_block = recordPressCycles(o, plant, recorder);
-    if (o.sweep) next_block = recordSweep(o, plant, next_block, recorder);
-    if (o.step_test != 0.0) recordStepTest(o, plant, next_block, recorder);
-    recorder.close();
+    // A bag cut by a full disk reads as a valid, shorter recording: nothing takes its final name before
+    // everything is whole; a failure removes the temporary files (OutputFiles' destructor).
+    OutputFiles files;
+    if (!o.config_out.empty()) writeConfig(o, plant, files.add(o.config_out));
+    if (!o.truth_out.empty()) writeTruth(o, plant, files.add(o.truth_out));
+    {
+      BagRecorder recorder(files.add(o.out), o.epoch, o.recording);
+      double next_block = recordPressCycles(o, plant, recorder);
+      if (o.sweep) next_block = recordSweep(o, plant, next_block, recorder);
+      if (o.step_test != 0.0) recordStepTest(o, plant, next_block, recorder);
+      recorder.close();
+    }
+    files.commit();
+  } catch (const WriteError& e) {
+    std::cerr << "simulate_bag: " << e.what() << "\n";
+    return 4;
   } catch (const std::exception& e) {
     std::cerr << "simulate_bag: " << e.what() << "\n";
     return 1;

@@ -4,7 +4,8 @@
 // its identified parameters, effects and measured pressure noise from an analyze_bag summary, or the
 // config's. Writes DIR/settings_study.csv, DIR/settings_{bias,std}_{derivative,integral}.svg (bias and
 // std in % against the moving-average width, a line per derivative width, as in the paper's figures) and
-// DIR/recommendation.txt.
+// DIR/recommendation.txt, whole or not at all (OutputFiles; recommendation.txt last): exit 4 when they
+// cannot be written.
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -21,15 +22,21 @@
 #include "argument_parser.h"
 #include "command_line.h"
 #include "die_cushion_ident/core/analysis/settings_study.h"
+#include "output_files.h"
 
 namespace die_cushion_ident {
 namespace {
 
 const char* kUsage =
-    "usage: study_settings [--config FILE] [--from-summary SUMMARY] --out DIR [--seeds N] [--cycles N] [--jobs N]\n"
-    "  The paper's study of the filter widths and the sampling time on the simulator configured as your press\n"
+    "usage: study_settings [--config FILE] [--from-summary SUMMARY] --out DIR [--seeds N] [--cycles N] "
+    "[--jobs N]\n"
+    "  The paper's study of the filter widths and the sampling time on the simulator configured as your "
+    "press\n"
     "  (an analyze_bag summary.yaml gives its parameters, effects and pressure noise; else the config's).\n"
-    "  Defaults: 64 seeds x 3 cycles per setting (every bias known to about 0.4 %), all cores.\n";
+    "  Defaults: 64 seeds x 3 cycles per setting (every bias known to about 0.4 %), all cores.\n"
+    "  Exit 0; 2 bad arguments or configuration; 3 the summary cannot be used; 4 the results cannot be "
+    "written\n"
+    "  (then none is left under its name: each is renamed from a temporary name when all are whole).\n";
 
 [[noreturn]] void fail(int code, const std::string& message) {
   std::cerr << "study_settings: " << message << "\n";
@@ -42,8 +49,8 @@ struct Series {
 };
 
 // A plain SVG line chart: no plotting library needed on the press's PC.
-void writeChart(const std::string& path, const std::string& title, const std::string& x_label,
-                const std::string& y_label, const std::vector<Series>& series) {
+void writeChart(OutputFiles& files, const std::string& path, const std::string& title,
+                const std::string& x_label, const std::string& y_label, const std::vector<Series>& series) {
   double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
   for (const auto& s : series) {
     for (const auto& [x, y] : s.points) {
@@ -57,7 +64,7 @@ void writeChart(const std::string& path, const std::string& title, const std::st
   const auto X = [&](double x) { return left + (x - x0) / (x1 - x0) * (W - left - right); };
   const auto Y = [&](double y) { return H - bottom - (y - y0) / (y1 - y0) * (H - top - bottom); };
   static const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
-  std::ofstream out(path);
+  std::ofstream out(files.add(path));
   out << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' "
       << "font-size='11'>\n<text x='" << left << "' y='20' font-size='13'>" << title << "</text>\n";
   out << "<line x1='" << left << "' y1='" << Y(0) << "' x2='" << W - right << "' y2='" << Y(0)
@@ -82,6 +89,7 @@ void writeChart(const std::string& path, const std::string& title, const std::st
         << series[k].label << "</text>\n";
   }
   out << "</svg>\n";
+  closeChecked(out, path);
 }
 
 // The press to study: the configuration's, or the one a summary identified (its noise included).
@@ -109,20 +117,19 @@ SimulatorConfig plantToStudy(const IdentificationConfig& base, const std::string
   return plant;
 }
 
-void writeCsv(const std::string& out, const std::vector<SettingsStudyPoint>& points) {
-  std::ofstream csv(out + "/settings_study.csv");
+void writeCsv(OutputFiles& files, const std::string& out, const std::vector<SettingsStudyPoint>& points) {
+  std::ofstream csv(files.add(out + "/settings_study.csv"));
   csv << "form,moving_average_width,derivative_width,sample_period,parameter,bias,std,runs,bias_standard_error\n";
   for (const auto& p : points) {
     csv << regressionFormName(p.form) << "," << p.moving_average_width << "," << p.derivative_width << ","
         << p.sample_period << "," << p.parameter << "," << p.bias << "," << p.std << "," << p.runs << ","
         << p.biasStandardError() << "\n";
   }
-  csv.close();
-  if (!csv) fail(4, "cannot write " + out + "/settings_study.csv");
+  closeChecked(csv, out + "/settings_study.csv");
 }
 
 // Bias and std against the moving-average width, one line per derivative width, for each form.
-void writeCharts(const std::string& out, const std::vector<SettingsStudyPoint>& points,
+void writeCharts(OutputFiles& files, const std::string& out, const std::vector<SettingsStudyPoint>& points,
                  double sample_period) {
   for (RegressionForm form : {RegressionForm::kDerivative, RegressionForm::kIntegral}) {
     for (const bool bias : {true, false}) {
@@ -139,9 +146,10 @@ void writeCharts(const std::string& out, const std::vector<SettingsStudyPoint>& 
         for (auto& [width, s] : by_width) series.push_back(s);
       }
       const std::string name = std::string("settings_") + (bias ? "bias_" : "std_") + regressionFormName(form) + ".svg";
-      writeChart(out + "/" + name,
-                 std::string(bias ? "bias" : "std") + " of the estimates, " + regressionFormName(form) + " form",
-                 "moving-average width b [samples]", bias ? "bias [%]" : "std [%]", series);
+      writeChart(
+          files, out + "/" + name,
+          std::string(bias ? "bias" : "std") + " of the estimates, " + regressionFormName(form) + " form",
+          "moving-average width b [samples]", bias ? "bias [%]" : "std [%]", series);
     }
   }
 }
@@ -182,10 +190,16 @@ int run(int argc, char** argv) {
       std::cerr << "study_settings: " << percent << " % (" << done << " of " << total << " runs)\n";
     last_percent = percent;
   });
-  writeCsv(out, points);
-  writeCharts(out, points, base.resampler.sample_period);
   const std::string recommendation = recommendSettings(points, base);
-  std::ofstream(out + "/recommendation.txt") << recommendation << "\n";
+  OutputFiles files;  // a failure (WriteError, to main) removes what was written under temporary names
+  writeCsv(files, out, points);
+  writeCharts(files, out, points, base.resampler.sample_period);
+  {
+    std::ofstream text(files.add(out + "/recommendation.txt"));
+    text << recommendation << "\n";
+    closeChecked(text, out + "/recommendation.txt");
+  }
+  files.commit();
   std::cout << recommendation << "\nresults in " << out << "\n";
   return 0;
 }
@@ -196,6 +210,9 @@ int run(int argc, char** argv) {
 int main(int argc, char** argv) {
   try {
     return die_cushion_ident::run(argc, argv);
+  } catch (const die_cushion_ident::WriteError& e) {
+    std::cerr << "study_settings: " << e.what() << "\n";
+    return 4;
   } catch (const std::exception& e) {
     std::cerr << "study_settings: " << e.what() << "\n";
     return 1;

@@ -22,6 +22,7 @@
 
 #include "bag_analysis.h"
 #include "die_cushion_ident/FrequencyResponse.h"
+#include "killed_recording.h"
 #include "tool_runner.h"
 
 namespace {
@@ -664,6 +665,43 @@ TEST_F(AnalyzeBag, CorruptedBytesAreNamedWhereTheyAreAndALostIndexLosesNothing) 
     EXPECT_TRUE(anyWarningSays(s, "lost its index"));
   }
   EXPECT_EQ(run("ls -A " + tmp).output, "") << "no temporary copy";
+}
+
+// A recording killed with SIGKILL (rosbag record's NAME.bag.active, issue 45): the open chunk's records
+// are read as its messages up to the last whole one, the record the kill cut is counted, the summary says
+// how many records could not be read and never that every message was read. (The same with a real
+// `rosbag record`: the rostest killed_recording.)
+TEST_F(AnalyzeBag, AKilledRecordingIsReadToItsLastMessageAndSaysWhatItCouldNotRead) {
+  const std::string bag = kWork + "/killed.bag.active";
+  ASSERT_TRUE(die_cushion_ident::testing::writeKilledRecording(bag, [&](rosbag::Bag& out) {
+    rosbag::Bag source(kWork + "/leak.bag", rosbag::bagmode::Read);
+    for (const rosbag::MessageInstance& m : rosbag::View(source)) {
+      out.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
+    }
+  }));
+  // Where the recorder's last flush ended is fixed by the bytes; 37 bytes less cut a record for certain.
+  {
+    const std::string bytes = fileText(bag);
+    std::ofstream(bag, std::ios::binary) << bytes.substr(0, bytes.size() - 37);
+  }
+  const auto holds = die_cushion_ident::testing::walkKilledRecording(fileText(bag));
+  ASSERT_TRUE(holds.open_chunk);
+  ASSERT_TRUE(holds.ends_inside_a_record);
+  ASSERT_GT(holds.open_chunk_messages, 1000u) << "the open chunk holds seconds of the recording";
+  const CommandResult r = run(kTools + "/analyze_bag " + bag + " --out " + kWork + "/killed" +
+                              configFile("geometry.yaml", kGeometry));
+  EXPECT_EQ(r.status, 5) << "partial: one record could not be read\n" << r.output;
+  const YAML::Node s = YAML::LoadFile(kWork + "/killed/summary.yaml");
+  std::uint64_t read = 0;
+  for (const char* topic : {"pressure", "position", "valve"})
+    read += s["input"]["topics"][topic]["messages"].as<std::uint64_t>();
+  EXPECT_EQ(read, holds.messages) << "every whole message the file holds";
+  EXPECT_EQ(s["input"]["records_unreadable"].as<int>(), 1);
+  EXPECT_TRUE(anyWarningSays(s, "1 record")) << fileText(kWork + "/killed/summary.yaml");
+  EXPECT_TRUE(anyWarningSays(s, "not closed")) << fileText(kWork + "/killed/summary.yaml");
+  EXPECT_FALSE(anyWarningSays(s, "every message was read")) << fileText(kWork + "/killed/summary.yaml");
+  EXPECT_FALSE(anyWarningSays(s, "unknown kind")) << fileText(kWork + "/killed/summary.yaml");
+  expectFinite(kWork + "/killed");
 }
 
 TEST_F(AnalyzeBag, AReusedOutputFolderKeepsNoStaleFileAndListsWhatItHolds) {

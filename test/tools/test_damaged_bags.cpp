@@ -19,6 +19,7 @@
 
 #include "bag_stream_reader.h"
 #include "die_cushion_ident/ValveSignal.h"
+#include "killed_recording.h"
 
 namespace die_cushion_ident {
 namespace {
@@ -129,6 +130,106 @@ TEST(DamagedBags, DamageInCompressedChunksIsNamed) {
     // A damaged compressed chunk cannot be resynchronised inside: it is lost, the others are read.
     const std::vector<std::uint64_t> lost = damageAndRead(bag, 20, 2);
     EXPECT_LT(lost[10], 3u * 6000u) << "the chunks after the damaged one are read";
+    std::remove(bag.c_str());
+  }
+}
+
+// A recording killed with SIGKILL (`rosbag record` leaves NAME.bag.active, issue 45): the open chunk's
+// header has size 0 and its records follow it up to where the recorder's last write ended. Every whole
+// message the file holds is read, in order and none skipped; the record the end of the file cuts is
+// counted as not readable; the reading says the recording was not closed. Five kills at different points,
+// each also cut 1 to 60 bytes shorter, so that the end falls in every part of a record (its lengths, its
+// header, its data) as well as after a whole one.
+void expectReadAsItHolds(const std::string& bag, int samples) {
+  const testing::KilledRecordingContents holds = testing::walkKilledRecording(fileBytes(bag));
+  ASSERT_TRUE(holds.open_chunk) << "rosbag's layout of a killed recording";
+  // At 2 x 1 kHz and about 80 bytes a record, 768 kB chunks: two closed, the third open.
+  ASSERT_GT(holds.open_chunk_messages, 1000u);
+  BagStreamReader reader(bag);
+  std::uint64_t delivered = 0, pressures = 0;
+  bool consecutive = true;
+  const bool complete = reader.read([&](const BagStreamReader::Message& m) {
+    ++delivered;
+    double stamp = 0.0, pressure = 0.0;
+    if (m.connection->topic != "/die_cushion/pressure") return;
+    ASSERT_TRUE(decodeFluidPressure(m.data, m.size, &stamp, &pressure));
+    consecutive = consecutive && pressure == 1e6 + static_cast<double>(pressures);
+    ++pressures;
+  });
+  EXPECT_EQ(delivered, holds.messages) << "exactly the whole messages the file holds";
+  EXPECT_EQ(reader.messages(), holds.messages);
+  EXPECT_TRUE(consecutive) << "in order, none skipped";
+  // The recorder's unwritten buffer (at most 8 kB, records of at least 70 bytes) and the cut are all lost.
+  EXPECT_LE(2u * samples - delivered, 8192u / 70u + 2u);
+  EXPECT_EQ(reader.recordsUnreadable(), holds.ends_inside_a_record ? 1u : 0u);
+  EXPECT_TRUE(reader.damage().empty()) << reader.damage().front().what;
+  EXPECT_TRUE(reader.unclosed());
+  EXPECT_FALSE(complete) << "a recording that was not closed is not complete";
+  EXPECT_TRUE(reader.cutOff());
+  EXPECT_EQ(reader.dataLost(), holds.ends_inside_a_record);
+  EXPECT_NE(reader.error().find("not closed"), std::string::npos) << reader.error();
+}
+
+TEST(DamagedBags, AKilledRecordingIsReadToItsLastWholeMessage) {
+  int cut_inside = 0;
+  for (const int samples : {6500, 6731, 7000, 7333, 7919}) {
+    SCOPED_TRACE(std::to_string(samples) + " samples written before the kill");
+    const std::string bag = temporaryPath("killed.bag.active");
+    ASSERT_TRUE(testing::writeKilledRecording(bag, [&](rosbag::Bag& b) {
+      for (int k = 0; k < samples; ++k) {
+        const ros::Time t(1700000000.0 + 1e-3 * k);
+        sensor_msgs::FluidPressure p;
+        p.header.stamp = t;
+        p.fluid_pressure = 1e6 + k;
+        b.write("/die_cushion/pressure", t, p);
+        ValveSignal u;
+        u.header.stamp = t;
+        u.voltage = 1e-4 * k;
+        b.write("/die_cushion/valve", t, u);
+      }
+    }));
+    expectReadAsItHolds(bag, samples);
+    const std::string bytes = fileBytes(bag);
+    for (const std::size_t shorter : {1, 2, 3, 4, 5, 9, 17, 30, 41, 60}) {
+      SCOPED_TRACE(std::to_string(shorter) + " bytes shorter");
+      std::ofstream(bag, std::ios::binary) << bytes.substr(0, bytes.size() - shorter);
+      cut_inside +=
+          testing::walkKilledRecording(bytes.substr(0, bytes.size() - shorter)).ends_inside_a_record;
+      expectReadAsItHolds(bag, samples);
+    }
+    std::remove(bag.c_str());
+  }
+  EXPECT_GE(cut_inside, 40) << "most of the shortened copies end inside a record";
+}
+
+// Killed while recording compressed (`rosbag record --lz4` / `--bz2`): the open chunk's records are one
+// compressed stream after its header, which cannot be expanded without its end. The closed chunks are read,
+// the rest is named as not read, and it is no damage.
+TEST(DamagedBags, AKilledCompressedRecordingSaysItsOpenChunkIsNotRead) {
+  for (const auto compression : {rosbag::compression::LZ4, rosbag::compression::BZ2}) {
+    const std::string bag = temporaryPath("killed_compressed.bag.active");
+    constexpr int kSamples = 20000;
+    ASSERT_TRUE(testing::writeKilledRecording(bag, [&](rosbag::Bag& b) {
+      b.setCompression(compression);
+      for (int k = 0; k < kSamples; ++k) {
+        const ros::Time t(1700000000.0 + 1e-3 * k);
+        sensor_msgs::FluidPressure p;
+        p.header.stamp = t;
+        p.fluid_pressure = 1e6 + k;
+        b.write("/die_cushion/pressure", t, p);
+      }
+    }));
+    BagStreamReader reader(bag);
+    std::uint64_t delivered = 0;
+    EXPECT_FALSE(reader.read([&](const BagStreamReader::Message&) { ++delivered; }));
+    // 768 kB of uncompressed records (about 78 bytes each) a chunk: the closed ones (about 10 000 messages
+    // each), not the open one.
+    EXPECT_GT(delivered, 9000u);
+    EXPECT_LT(delivered, static_cast<std::uint64_t>(kSamples));
+    EXPECT_TRUE(reader.unclosed());
+    EXPECT_TRUE(reader.dataLost());
+    EXPECT_TRUE(reader.damage().empty()) << reader.damage().front().what;
+    EXPECT_NE(reader.error().find("cannot be expanded"), std::string::npos) << reader.error();
     std::remove(bag.c_str());
   }
 }
