@@ -25,18 +25,22 @@ SupervisedValve::~SupervisedValve() {
   std::lock_guard<std::mutex> lock(mutex_);
   Instant t = now();
   supervisor_.abortExperiment("shutdown", t);
-  if (const auto u = supervisor_.experimentCommand(t)) publish(command_pub_, *u);
-  // The feed-forward ramps out as it would on any other fault, for at most kShutdownRamp.
+  if (const auto u = supervisor_.experimentCommand(t)) publish(command_pub_, *u, t);
+  // The feed-forward ramps out as it would on any other fault: as long as its slew rate takes, up to
+  // kShutdownRamp, then 0 V (a node that goes must not leave a voltage on the adder).
   supervisor_.enableFeedForward(false, t);
   const double period = ValveSupervisor::watchPeriod(supervisor_.limits());
-  const double end = t.steady + kShutdownRamp;
+  const double end =
+      t.steady + std::min(kShutdownRamp, 2.0 * period + std::abs(supervisor_.feedForwardOutput()) /
+                                                            supervisor_.feedForwardSlewRate());
   while (supervisor_.feedForwardEngaged() && t.steady < end) {
     std::this_thread::sleep_for(std::chrono::duration<double>(period));
     t = now();
-    send(supervisor_.watch(t));
+    send(supervisor_.watch(t), t);
   }
-  if (supervisor_.feedForwardEngaged())
-    publish(feed_forward_pub_, 0.0);  // a node that goes must not leave a voltage
+  if (supervisor_.feedForwardEngaged()) publish(feed_forward_pub_, 0.0, now());
+  // roscpp sends from its own threads: the last commands must leave before their publishers go.
+  std::this_thread::sleep_for(std::chrono::duration<double>(kLinger));
 }
 
 Instant SupervisedValve::now() {
@@ -89,13 +93,15 @@ std::string SupervisedValve::startExperiment(const std::function<std::string(Val
 
 void SupervisedValve::feedForward(double wanted, const std::string& why) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto u = supervisor_.feedForward(wanted, why, now())) publish(feed_forward_pub_, *u);
+  const Instant t = now();
+  if (const auto u = supervisor_.feedForward(wanted, why, t)) publish(feed_forward_pub_, *u, t);
 }
 
 void SupervisedValve::onCommandTimer(const ros::TimerEvent&) {
   std::lock_guard<std::mutex> timer_lock(timer_mutex_);
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto u = supervisor_.experimentCommand(now())) publish(command_pub_, *u);
+  const Instant t = now();
+  if (const auto u = supervisor_.experimentCommand(t)) publish(command_pub_, *u, t);
   experiment_holds_valve_ = supervisor_.experimentHoldsValve();
   if (!experiment_holds_valve_) command_timer_.stop();  // the offset has been sent
 }
@@ -110,21 +116,24 @@ void SupervisedValve::watchdog() {
     // A stalled thread does not catch up in a burst: the next tick is a period from now.
     next = std::max(next, std::chrono::steady_clock::now());
     std::lock_guard<std::mutex> lock(mutex_);
-    send(supervisor_.watch(now()));
+    const Instant t = now();
+    send(supervisor_.watch(t), t);
     // The command timer stops itself at its next call (stopping it from here could wait for that very
     // call, which waits for this lock).
     experiment_holds_valve_ = supervisor_.experimentHoldsValve();
   }
 }
 
-void SupervisedValve::send(const ValveSupervisor::Commands& commands) {
-  if (commands.valve_command) publish(command_pub_, *commands.valve_command);
-  if (commands.feed_forward) publish(feed_forward_pub_, *commands.feed_forward);
+void SupervisedValve::send(const ValveSupervisor::Commands& commands, Instant decided) {
+  if (commands.valve_command) publish(command_pub_, *commands.valve_command, decided);
+  if (commands.feed_forward) publish(feed_forward_pub_, *commands.feed_forward, decided);
 }
 
-void SupervisedValve::publish(const ros::Publisher& publisher, double voltage) {
+void SupervisedValve::publish(const ros::Publisher& publisher, double voltage, Instant decided) {
   ValveSignal msg;
-  msg.header.stamp = ros::Time::now();
+  // Stamped with the moment the supervisor decided it (the one its slew limit counted from), not when
+  // publish() ran: a thread preempted in between would show a step the limit never allowed.
+  msg.header.stamp = ros::Time(std::max(decided.clock, 0.0));
   msg.voltage = voltage;
   msg.spool_position = std::numeric_limits<double>::quiet_NaN();  // a command: no spool measured
   publisher.publish(msg);

@@ -22,8 +22,9 @@ class SupervisedValve {
   /// Throws std::invalid_argument for invalid limits.
   SupervisedValve(ros::NodeHandle nh, ros::NodeHandle pnh, const SweepLimits& limits,
                   const FeedForwardOutputLimits& feed_forward, double command_hold);
-  /// Aborts an experiment ("shutdown", its offset sent) and ramps the feed-forward out (at most
-  /// kShutdownRamp, then 0 V), then stops the watchdog.
+  /// Stops the watchdog, aborts an experiment ("shutdown", its offset sent) and ramps the feed-forward out
+  /// (for as long as its slew rate takes, at most kShutdownRamp, then 0 V), then lingers kLinger for the
+  /// last messages to leave.
   ~SupervisedValve();
 
   /// The moment now on the steady clock and ROS time.
@@ -54,16 +55,19 @@ class SupervisedValve {
   /// True while an experiment holds the valve (lock-free: the spinner asks it after every batch).
   bool experimentHoldsValve() const { return experiment_holds_valve_; }
 
-  /// [s] the longest the destructor ramps the feed-forward before it sends 0 V.
-  static constexpr double kShutdownRamp = 1.0;
+  /// [s] the longest the destructor ramps the feed-forward before it sends 0 V (10 V at 1 V/s).
+  static constexpr double kShutdownRamp = 10.0;
+  /// [s] how long the destructor waits for its last messages to leave (roscpp sends from its own threads;
+  /// a publisher destroyed right after publish() lost the offset in 1 of 7 to 2 of 6 stops).
+  static constexpr double kLinger = 0.1;
 
  private:
   void watchdog();
   std::string startExperiment(const std::function<std::string(ValveSupervisor&)>& start);
   void onCommandTimer(const ros::TimerEvent&);
-  void send(const ValveSupervisor::Commands& commands);
-  /// A command on `publisher` (valve_command or ~feed_forward), stamped when sent.
-  static void publish(const ros::Publisher& publisher, double voltage);
+  void send(const ValveSupervisor::Commands& commands, Instant decided);
+  /// A command on `publisher` (valve_command or ~feed_forward), stamped with the clock of `decided`.
+  static void publish(const ros::Publisher& publisher, double voltage, Instant decided);
 
   mutable std::mutex mutex_;  // the supervisor's; never held while waiting for timer_mutex_
   std::mutex timer_mutex_;    // the command timer's start and stop, taken before mutex_

@@ -27,7 +27,8 @@ void ValveExperimentServices::addDiagnostics(diagnostic_updater::Updater& update
     std::lock_guard<std::mutex> lock(mutex_);
     poll();
     valve_.locked([&](const ValveSupervisor& s) {
-      fill(status, valveHealth(s.experiments().sweep(), live_.config().valve, last_valve_fit_));
+      fill(status,
+           valveHealth(s.experiments().sweep(), live_.config().valve, last_sweep_fit_, last_valve_fit_));
     });
   });
   updater.add("step test", [this](diagnostic_updater::DiagnosticStatusWrapper& status) {
@@ -49,13 +50,13 @@ void ValveExperimentServices::poll() {
   valve_.locked([&](const ValveSupervisor& s) {
     const ValveSweep& current = s.experiments().sweep();
     if (!sweep_reported_ && (current.points().size() != published_points_ || !current.running())) {
-      sweep = SweepReport{current.points(), current.fit(), current.state(), current.abortReason()};
+      sweep = SweepReport{current.points(), current.state(), current.abortReason()};
     }
     if (!step_test_reported_ && !s.experiments().stepTest().running())
       ended_step_test = s.experiments().stepTest();
   });
   if (sweep) {
-    if (sweep->points.size() != published_points_) publishFrequencyResponse(*sweep);
+    if (sweep->points.size() != published_points_) publishFrequencyResponse(*sweep, ServoValveFit());
     if (sweep->state != ValveSweep::State::kRunning) finishSweep(*sweep);
   }
   if (ended_step_test) stepTestEnded(*ended_step_test);
@@ -98,16 +99,18 @@ bool ValveExperimentServices::abortSweep(AbortSweep::Request&, AbortSweep::Respo
   return true;
 }
 
-void ValveExperimentServices::publishFrequencyResponse(const SweepReport& sweep) {
+void ValveExperimentServices::publishFrequencyResponse(const SweepReport& sweep, const ServoValveFit& fit) {
   published_points_ = sweep.points.size();
-  response_pub_.publish(
-      toFrequencyResponseMsg(sweep.points, sweep.fit, sweepStateName(sweep.state), ros::Time::now()));
+  response_pub_.publish(toFrequencyResponseMsg(sweep.points, fit, sweepStateName(sweep.state), ros::Time::now()));
 }
 
 void ValveExperimentServices::finishSweep(const SweepReport& sweep) {
   sweep_reported_ = true;
-  publishFrequencyResponse(sweep);
-  const ServoValveFit& fit = sweep.fit;
+  // The model fitted here, outside the supervisor's lock: the valve was handed back before.
+  const bool finished = sweep.state == ValveSweep::State::kFinished;
+  const ServoValveFit fit = finished ? fitServoValve(sweep.points) : ServoValveFit();
+  if (finished) last_sweep_fit_ = fit;
+  publishFrequencyResponse(sweep, fit);
   ValveModel msg = toValveModelMsg(fit, ros::Time::now());
   if (sweep.state == ValveSweep::State::kAborted) {
     msg.success = false;

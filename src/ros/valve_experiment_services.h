@@ -46,7 +46,6 @@ class ValveExperimentServices {
   /// What a sweep's results need, copied out of the supervisor.
   struct SweepReport {
     std::vector<FrequencyResponsePoint> points;
-    ServoValveFit fit;
     ValveSweep::State state;
     std::string abort_reason;
   };
@@ -54,7 +53,7 @@ class ValveExperimentServices {
   bool startSweep(StartSweep::Request& request, StartSweep::Response& response);
   bool abortSweep(AbortSweep::Request& request, AbortSweep::Response& response);
   bool startStepTest(StartStepTest::Request& request, StartStepTest::Response& response);
-  void publishFrequencyResponse(const SweepReport& sweep);
+  void publishFrequencyResponse(const SweepReport& sweep, const ServoValveFit& fit);
   void finishSweep(const SweepReport& sweep);
   /// The step test's end: its status, and when to time the pressure's answer.
   void stepTestEnded(const ValveStepTest& test);
@@ -64,8 +63,9 @@ class ValveExperimentServices {
   LiveIdentification& live_;
   SupervisedValve& valve_;
 
-  ServoValveFit last_valve_fit_;
-  bool sweep_reported_ = true;  // the last sweep's results have been published
+  ServoValveFit last_valve_fit_;  // the last successful sweep's
+  ServoValveFit last_sweep_fit_;  // the last finished sweep's, successful or not
+  bool sweep_reported_ = true;    // the last sweep's results have been published
   std::size_t published_points_ = 0;
   bool step_test_reported_ = true;                                      // the ended step test's status is set
   double step_time_ = 0.0;                                              // [s] the running step's own time

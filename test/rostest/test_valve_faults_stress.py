@@ -16,12 +16,10 @@ from sensor_msgs.msg import FluidPressure
 from die_cushion_ident.msg import ParameterEstimate
 from die_cushion_ident.srv import AbortSweep, Reset, SetEffects, SetFeedForward, StartStepTest, StartSweep
 from rostest_helpers import Latest
-from valve_faults_common import Press, Recorder, check_limits, check_one_output_at_a_time, check_slew, wait_until
+from valve_faults_common import (NS, SWEEP, Press, Recorder, check_limits, check_one_output_at_a_time, check_slew,
+                                 wait_until)
 
-NS = "/die_cushion/ident/"
 VOLTAGE, SLEW = 3.0, 20.0
-SWEEP = dict(frequencies=[20.0, 40.0, 60.0, 80.0, 100.0], amplitude=0.3, settle_periods=0.0,
-             integration_periods=0.0)
 
 
 class ValveFaultsStress(unittest.TestCase):

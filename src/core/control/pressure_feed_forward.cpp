@@ -65,44 +65,73 @@ double PressureFeedForward::invert(double wanted, HydraulicSignals& s) const {
   return wanted >= 0.0 ? y_zero + (y_hi - y_zero) * wanted / q_hi : y_zero + (y_lo - y_zero) * wanted / q_lo;
 }
 
-double PressureFeedForward::spoolOpening(double p_ref, double dp_ref, double x, double v,
-                                         std::string* refusal) const {
+double PressureFeedForward::opening(const SetpointAhead& setpoint, double x, double v,
+                                    std::string* refusal) const {
   const auto refuse = [&](const std::string& why) {
     if (refusal) *refusal = why;
     return std::numeric_limits<double>::quiet_NaN();
   };
-  if (!(std::isfinite(p_ref) && std::isfinite(dp_ref) && std::isfinite(x) && std::isfinite(v))) {
+  const double p_ahead = setpoint.ahead(), rate = setpoint.rate;
+  if (!(std::isfinite(p_ahead) && std::isfinite(setpoint.pressure) && std::isfinite(x) && std::isfinite(v))) {
     return refuse("the set-point, its rate or the cushion's position or velocity is not finite");
   }
   HydraulicSignals s;
-  s.p = p_ref;
   s.x = std::clamp(x, 0.0, model_.geometry().stroke_length);  // a preview beyond the stroke is not a chamber
   s.v = v;
-  s.dp = dp_ref;
   s.V = model_.chamberVolume(s.x, physical_(HydraulicModel::kDeadVolume));
-  // The compliance the set-point's rate meets: the capacitance plus what every outflow term in dp/dt adds
-  // (a custom p*dp term is a compressibility). Not positive, the dp_ref term would turn round.
-  const double h = std::max(1e5, 1e-3 * std::abs(dp_ref));
-  HydraulicSignals above = s, below = s;
-  above.dp = dp_ref + h;
-  below.dp = dp_ref - h;
+  // The compliance the rate meets, at the set-point's newest value: the capacitance plus what every outflow
+  // term in dp/dt adds (a custom p*dp term is a compressibility), as the secant of those terms up to the
+  // rate. Not positive, the rate's term would turn round.
+  HydraulicSignals now = s, resting = s;
+  now.p = resting.p = setpoint.pressure;
+  now.dp = rate;
+  resting.dp = 0.0;
+  const double capacitance = model_.capacitance(now, physical_);
+  const double h = std::max(1e5, 1e-3 * std::abs(rate));
+  HydraulicSignals above = now, below = now;
+  above.dp = rate + h;
+  below.dp = rate - h;
   const double compliance =
-      model_.capacitance(s, physical_) +
+      capacitance +
       (model_.extraOutflow(above, physical_) - model_.extraOutflow(below, physical_)) / (2.0 * h);
   if (!(compliance > 0.0) || !std::isfinite(compliance)) {
-    return refuse(formatted("the chamber's compliance at %.1f bar", p_ref * 1e-5) +
+    return refuse(formatted("the chamber's compliance at %.1f bar", setpoint.pressure * 1e-5) +
                   formatted(" and x = %.3f m is ", s.x) + formatted("%.3g m^3/Pa", compliance) +
                   ", not positive: the set-point's rate would act the wrong way");
   }
-  const double wanted = model_.geometry().piston_area * v - model_.extraOutflow(s, physical_) -
-                        model_.capacitance(s, physical_) * dp_ref;
+  const double rate_flow =
+      capacitance * rate + model_.extraOutflow(now, physical_) - model_.extraOutflow(resting, physical_);
+  // The flows that do not depend on the rate, at the pressure the valve will meet.
+  s.p = p_ahead;
+  s.dp = 0.0;
+  const double wanted = model_.geometry().piston_area * v - model_.extraOutflow(s, physical_) - rate_flow;
   if (!std::isfinite(wanted)) return refuse("the model's flows are not finite at the set-point");
   return invert(wanted, s);
 }
 
-double PressureFeedForward::command(double p_ref, double dp_ref, double x, double v,
+double PressureFeedForward::spoolOpening(const SetpointAhead& setpoint, double x, double v,
+                                         std::string* refusal) const {
+  const double y = opening(setpoint, x, v, refusal);
+  if (!std::isfinite(y)) return y;
+  // The answer to a slightly steeper rise: never further towards the drain (positive feedback on the
+  // set-point). The library's effects cannot turn it round; a custom term may.
+  SetpointAhead steeper = setpoint;
+  steeper.rate += std::max(1e5, 1e-3 * std::abs(setpoint.rate));
+  const double y_steeper = opening(steeper, x, v, nullptr);
+  if (!(y_steeper <= y + 1e-12)) {
+    if (refusal) {
+      *refusal =
+          formatted("the model's inverse turns round at %.1f bar", setpoint.pressure * 1e-5) +
+          formatted(" and %.3g Pa/s: a steeper rise would open the valve towards the drain", setpoint.rate);
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return y;
+}
+
+double PressureFeedForward::command(const SetpointAhead& setpoint, double x, double v,
                                     std::string* refusal) const {
-  const double y = spoolOpening(p_ref, dp_ref, x, v, refusal);
+  const double y = spoolOpening(setpoint, x, v, refusal);
   if (!std::isfinite(y)) return y;
   return std::clamp(y / valve_gain_, -max_voltage_, max_voltage_);
 }
@@ -157,9 +186,8 @@ double PressureReference::rate() const {
   return std::clamp(stp / stt, -limits_.max_rate, limits_.max_rate);
 }
 
-std::optional<std::pair<double, double>> PressureReference::at(Instant now, double ahead,
-                                                               std::string* why) const {
-  const auto stale = [&](const std::string& reason) {
+std::optional<SetpointAhead> PressureReference::at(Instant now, double ahead, std::string* why) const {
+  const auto stale = [&](const std::string& reason) -> std::optional<SetpointAhead> {
     if (why) *why = reason;
     return std::nullopt;
   };
@@ -178,10 +206,8 @@ std::optional<std::pair<double, double>> PressureReference::at(Instant now, doub
     return stale(formatted("pressure_setpoint is stamped %.3f s ahead of the clock (tolerance ", -age) +
                  formatted("%.3f s): its clock is not the node's", limits_.max_clock_offset));
   }
-  const double r = rate();
   // Extrapolated over the valve's lag and the set-point's own age, never further.
-  const double horizon = std::clamp(now.clock + ahead - t1, 0.0, limits_.max_age + ahead);
-  return std::make_pair(p1 + r * horizon, r);
+  return SetpointAhead{p1, rate(), std::clamp(now.clock + ahead - t1, 0.0, limits_.max_age + ahead)};
 }
 
 }  // namespace die_cushion_ident

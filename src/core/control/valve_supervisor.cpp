@@ -13,7 +13,11 @@ constexpr double kClockBackTolerance = 1e-3;  // [s] a clock that went back furt
 }  // namespace
 
 ValveSupervisor::ValveSupervisor(const SweepLimits& limits, const FeedForwardOutputLimits& feed_forward)
-    : limits_(limits), signals_(limits.max_clock_offset), experiments_(limits), output_(feed_forward) {}
+    : limits_(limits), signals_(limits.max_clock_offset), experiments_(limits), output_(feed_forward) {
+  // The sweep's model fit is not the supervisor's: it would hold up the hand-back and the watchdog (a sweep
+  // of 530 frequencies took 68-105 ms to fit).
+  experiments_.setSweepFitOnFinish(false);
+}
 
 double ValveSupervisor::watchPeriod(const SweepLimits& limits) {
   return std::clamp(0.1 * limits.signal_timeout, 1e-3, 5e-3);
@@ -80,6 +84,8 @@ void ValveSupervisor::superviseExperiment(Instant now, bool from_watchdog) {
 }
 
 std::optional<double> ValveSupervisor::experimentCommand(Instant now) {
+  // A moment on no steady time refreshes nothing: the watchdog stops the experiment if it lasts.
+  if (!std::isfinite(now.steady)) return std::nullopt;
   superviseExperiment(now, false);
   const std::optional<double> u = experiments_.command(now.clock);
   if (u) command_sent_ = now.steady;
@@ -128,6 +134,8 @@ std::optional<double> ValveSupervisor::sendFeedForward(double wanted, Instant no
 }
 
 std::optional<double> ValveSupervisor::feedForward(double wanted, const std::string& why, Instant now) {
+  // A grid sample at no steady time at all is none (an infinite one would hide a stalled grid for good).
+  if (!std::isfinite(now.steady)) return std::nullopt;
   ff_updated_ = now.steady;
   if (const std::string blocker = feedForwardBlocker(condition(now), now); !blocker.empty()) {
     return blockFeedForward(blocker, now);
@@ -151,7 +159,7 @@ void ValveSupervisor::watchClock(Instant now) {
     return;
   }
   const double advanced = now.clock - last_watch_->clock;
-  if (advanced > 0.0) clock_advanced_ = now.steady;
+  if (advanced > 0.0 && std::isfinite(advanced)) clock_advanced_ = now.steady;
   if (advanced < -kClockBackTolerance) {
     // The sweep's sine and the step test's timing run on this clock: what they measured no longer fits.
     clock_jump_ = formatted("the clock jumped back by %.3f s (a bag played again, a clock set)", -advanced);
@@ -168,6 +176,7 @@ void ValveSupervisor::watchClock(Instant now) {
 }
 
 ValveSupervisor::Commands ValveSupervisor::watch(Instant now) {
+  if (!std::isfinite(now.steady)) return {};
   watchClock(now);
   last_watch_ = now;
   Commands out;

@@ -96,7 +96,8 @@ HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimat
   return r;
 }
 
-HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& v, const ServoValveFit& f) {
+HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& v,
+                         const ServoValveFit& last_sweep, const ServoValveFit& f) {
   HealthReport r;
   r.add("sweep", sweepStateName(sweep.state()));
   r.add("model used for spool prediction",
@@ -113,8 +114,8 @@ HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& v,
     r.summary(HealthLevel::kWarn, "last sweep aborted: " + sweep.abortReason());
     return r;
   }
-  if (sweep.state() == ValveSweep::State::kFinished && !sweep.fit().success) {
-    r.summary(HealthLevel::kWarn, "last sweep not usable: " + sweep.fit().message);
+  if (sweep.state() == ValveSweep::State::kFinished && !last_sweep.success) {
+    r.summary(HealthLevel::kWarn, "last sweep not usable: " + last_sweep.message);
     return r;
   }
   if (!f.success) {

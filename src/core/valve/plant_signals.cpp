@@ -20,20 +20,22 @@ void PlantSignals::stamped(Topic topic, double stamp, Instant arrival) {
 
 void PlantSignals::pressure(double stamp, double value, Instant arrival) {
   stamped(kPressure, stamp, arrival);
-  if (!std::isfinite(value)) return;
+  // An arrival at no time at all refreshes nothing (an infinite one would keep a signal fresh for good).
+  if (!std::isfinite(value) || !std::isfinite(arrival.steady)) return;
   pressure_ = value;
   pressure_arrival_ = arrival.steady;
 }
 
 void PlantSignals::position(double stamp, double x, Instant arrival) {
   stamped(kPosition, stamp, arrival);
-  if (!std::isfinite(x) || !std::isfinite(stamp)) return;
+  if (!std::isfinite(x) || !std::isfinite(stamp) || !std::isfinite(arrival.steady)) return;
   velocity_.push(stamp, x);
   position_arrival_ = arrival.steady;
 }
 
 void PlantSignals::valve(double stamp, double spool, Instant arrival) {
   stamped(kValve, stamp, arrival);
+  if (!std::isfinite(arrival.steady)) return;
   valve_arrival_ = arrival.steady;
   if (std::isfinite(spool)) spool_arrival_ = arrival.steady;
 }

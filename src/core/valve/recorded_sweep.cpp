@@ -222,7 +222,9 @@ void SweepCandidateFilter::closeBlock(std::vector<ValveSample>* kept) {
 }
 
 void SweepCandidateFilter::push(const ValveSample& sample, std::vector<ValveSample>* kept) {
-  const double last = !current_.empty() ? current_.back().t : !previous_.empty() ? previous_.back().t : -INFINITY;
+  const double last = !current_.empty()    ? current_.back().t
+                      : !previous_.empty() ? previous_.back().t
+                                           : -INFINITY;
   if (!(sample.t > last)) return;
   if (current_.empty()) block_start_ = sample.t;
   if (sample.t - block_start_ >= block_) {

@@ -129,8 +129,8 @@ void ServoValve::propagateExactly(double h, double u) {
   const double y0 = y_, yd0 = y_dot_;
   propagateLinear(h, u);
   const double vmax = parameters_.max_spool_velocity;
-  const bool saturates = std::abs(y_) >= 1.0 || std::abs(y_dot_) > vmax || std::abs(parameters_.gain * u) >= 1.0 ||
-                         std::abs(yd0) >= vmax;
+  const bool saturates = std::abs(y_) >= 1.0 || std::abs(y_dot_) > vmax ||
+                         std::abs(parameters_.gain * u) >= 1.0 || std::abs(yd0) >= vmax;
   if (!saturates) return;
   y_ = y0;
   y_dot_ = yd0;

@@ -38,7 +38,8 @@ double timeTo63Percent(const std::vector<double>& t, const std::vector<double>& 
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-std::vector<StepResponse> findStepResponses(const std::vector<GridSample>& grid, const StepResponseOptions& options) {
+std::vector<StepResponse> findStepResponses(const std::vector<GridSample>& grid,
+                                            const StepResponseOptions& options) {
   std::vector<StepResponse> found;
   for (std::size_t i = 1; i < grid.size(); ++i) {
     const double jump = grid[i].u - grid[i - 1].u;
@@ -53,7 +54,8 @@ std::vector<StepResponse> findStepResponses(const std::vector<GridSample>& grid,
     if (grid[i].t - grid[first].t < 0.9 * options.before) continue;
     // ... and the new command held, still at rest.
     std::size_t last = i;
-    while (last + 1 < grid.size() && steady(grid[last + 1], grid[i].u, tolerance, options.max_rest_velocity)) {
+    while (last + 1 < grid.size() &&
+           steady(grid[last + 1], grid[i].u, tolerance, options.max_rest_velocity)) {
       ++last;
     }
     if (!steady(grid[i], grid[i].u, tolerance, options.max_rest_velocity) ||
@@ -78,7 +80,8 @@ std::vector<StepResponse> findStepResponses(const std::vector<GridSample>& grid,
     const double change = r.final_pressure - r.initial_pressure;
     const double earlier = meanPressure(p, n - 2 * tail, n - tail);
     i = last;
-    if (!(std::abs(change) >= options.min_change) || std::abs(earlier - r.final_pressure) > 0.05 * std::abs(change)) {
+    if (!(std::abs(change) >= options.min_change) ||
+        std::abs(earlier - r.final_pressure) > 0.05 * std::abs(change)) {
       continue;  // nothing to time, or not settled
     }
     r.t63 = timeTo63Percent(t, p, r.start, r.initial_pressure, options.settled_fraction);

@@ -326,7 +326,7 @@ void ValveSweep::finishFrequency() {
   ++index_;
   segment_pending_ = true;
   if (index_ < static_cast<int>(request_.frequencies.size())) return;
-  fit_ = fitServoValve(points_);
+  if (fit_on_finish_) fit_ = fitServoValve(points_);
   end(State::kFinished, "");
 }
 

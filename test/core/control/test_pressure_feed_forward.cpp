@@ -190,16 +190,16 @@ TEST(PressureReference, TheRateComesFromAWindowAndIsBounded) {
   reference.push(10.03001, 50e5 + 1e8 * 0.03 + 10e5, 1.03001);
   const auto now = reference.at({1.031, 10.031}, 0.0);
   ASSERT_TRUE(now.has_value());
-  EXPECT_LT(std::abs(now->second - 1e8), 0.5e8) << "the window's slope, not the last pair's 1e11 Pa/s";
+  EXPECT_LT(std::abs(now->rate - 1e8), 0.5e8) << "the window's slope, not the last pair's 1e11 Pa/s";
   PressureReference jumpy(limits);
   jumpy.push(10.0, 0.0, 1.0);
   jumpy.push(10.00001, 100e5, 1.00001);
   const auto jumped = jumpy.at({1.00002, 10.00002}, 0.01);
   ASSERT_TRUE(jumped.has_value());
-  EXPECT_EQ(jumped->second, 0.0) << "10 us of set-points tell no rate";
+  EXPECT_EQ(jumped->rate, 0.0) << "10 us of set-points tell no rate";
   PressureReference steep(limits);
   for (int k = 0; k <= 20; ++k) steep.push(10.0 + 0.001 * k, 1e11 * 0.001 * k, 1.0 + 0.001 * k);
-  EXPECT_DOUBLE_EQ(steep.at({1.02, 10.02}, 0.0)->second, limits.max_rate);
+  EXPECT_DOUBLE_EQ(steep.at({1.02, 10.02}, 0.0)->rate, limits.max_rate);
 }
 
 // Staleness on both sides and on both clocks; the extrapolation never reaches beyond the set-point's age.
@@ -222,7 +222,7 @@ TEST(PressureReference, AStampAheadOfTheClockOrAnOldOneOrALateArrivalIsNotUsed) 
   EXPECT_EQ(reference.push(-40.0, 60e5, 1.03), PressureReference::Push::kRestarted);
   const auto restarted = reference.at({1.031, -39.999}, 0.0);
   ASSERT_TRUE(restarted.has_value());
-  EXPECT_DOUBLE_EQ(restarted->first, 60e5);
+  EXPECT_DOUBLE_EQ(restarted->ahead(), 60e5);
 }
 
 }  // namespace

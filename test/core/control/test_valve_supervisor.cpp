@@ -17,115 +17,15 @@
 
 #include "die_cushion_ident/core/control/valve_supervisor.h"
 #include "die_cushion_ident/core/monitoring/live_diagnostics.h"
-#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
-#include "sweep_fixtures.h"
+#include "valve_supervisor_cell.h"
 
 namespace die_cushion_ident {
 namespace {
 
-struct Sent {
-  double steady;
-  bool feed_forward;  // else valve_command
-  double voltage;
-};
-
-/// A die cushion cell around one ValveSupervisor, on injected time (1 ms steps of steady time).
-class Cell {
- public:
-  explicit Cell(std::uint64_t seed, SweepLimits limits = SweepLimits(),
-                FeedForwardOutputLimits ff = ffLimits())
-      : supervisor(limits, ff),
-        plant(testing::cushionAtRest(testing::randomValve(seed), seed)),
-        limits_(limits) {
-    for (int i = 0; i < 200; ++i) tick();  // the inputs known, the velocity settled
-  }
-
-  static FeedForwardOutputLimits ffLimits() {
-    FeedForwardOutputLimits ff;
-    ff.max_voltage = 4.0;
-    ff.slew_rate = 20.0;
-    ff.max_step_interval = 0.01;
-    return ff;
-  }
-
-  Instant now() const { return {steady, clock}; }
-
-  /// One millisecond of steady time: the plant, its messages, the command timer (two calls, on the clock),
-  /// the grid's feed-forward, the watchdog when due.
-  void tick() {
-    steady += 0.001;
-    clock += clock_rate * 0.001;
-    messages_.clear();
-    plant.step(&messages_);
-    if (bus) {
-      for (const auto& m : messages_) {
-        const double stamp = clock + stamp_offset;
-        if (m.stream == InputStream::kPressure) supervisor.pressure(stamp, m.sample.first, now());
-        if (m.stream == InputStream::kPosition) supervisor.position(stamp, m.sample.first, now());
-        if (m.stream == InputStream::kValve) supervisor.valve(stamp, m.sample.first, m.sample.second, now());
-        last_message = steady;
-      }
-    }
-    if (timer && clock_rate > 0.0) {
-      for (int half = 0; half < 2; ++half) {
-        if (const auto u = supervisor.experimentCommand(now())) record(false, *u);
-      }
-    }
-    if (grid && bus) {
-      if (const auto u = supervisor.feedForward(wanted, "no set-point", now())) record(true, *u);
-    }
-    if (steady >= next_watch_) {
-      next_watch_ = steady + ValveSupervisor::watchPeriod(limits_) - 1e-9;
-      const auto out = supervisor.watch(now());
-      if (out.valve_command) record(false, *out.valve_command);
-      if (out.feed_forward) record(true, *out.feed_forward);
-    }
-  }
-  void run(double seconds) {
-    const double end = steady + seconds;
-    while (steady < end - 1e-9) tick();
-  }
-
-  void record(bool feed_forward, double u) {
-    sent.push_back({steady, feed_forward, u});
-    if (!feed_forward && apply_commands) plant.setValveCommandOverride(u);
-  }
-  /// The last command on a channel sent at or after `from` [steady s], and when; nullptr when none.
-  const Sent* lastAfter(bool feed_forward, double from) const {
-    for (auto it = sent.rbegin(); it != sent.rend() && it->steady >= from; ++it) {
-      if (it->feed_forward == feed_forward) return &*it;
-    }
-    return nullptr;
-  }
-
-  ValveSupervisor supervisor;
-  DieCushionSimulator plant;
-  double steady = 100.0, clock = 1000.0;
-  double clock_rate = 1.0;    // clock seconds per steady second (0: a stopped /clock)
-  double stamp_offset = 0.0;  // the drives' stamps against the clock
-  bool bus = true, timer = true, grid = false;
-  bool apply_commands = true;  // the valve follows valve_command
-  double wanted = NAN;         // the grid's feed-forward
-  double last_message = 0.0;
-  std::vector<Sent> sent;
-
- private:
-  SweepLimits limits_;
-  std::vector<SimulatedMeasurement> messages_;
-  double next_watch_ = 0.0;
-};
-
-SweepRequest sweepAt(double offset) {
-  SweepRequest request;
-  request.offset = offset;
-  request.frequencies = {20.0, 40.0, 60.0, 80.0, 100.0};
-  return request;
-}
-
-/// [s] the stated bound (doc/hardening.md): the timeout, one watch period, one tick of this harness.
-double safeBound(const SweepLimits& limits) {
-  return limits.signal_timeout + ValveSupervisor::watchPeriod(limits) + 0.001;
-}
+using testing::safeBound;
+using testing::Sent;
+using testing::sweepAt;
+using Cell = testing::SupervisedCell;
 
 /// After `fault` [steady s]: the experiment's offset went out within the bound, and nothing else after it.
 void expectBackAtOffset(const Cell& cell, double fault, double offset, const std::string& what) {
@@ -341,7 +241,7 @@ TEST(ValveSupervisor, PropertyNoInterleavingOfRequestsAndFaultsDrivesTheValveWro
     SweepLimits limits;
     limits.min_voltage = -1.5;
     limits.max_voltage = 1.5;
-    FeedForwardOutputLimits ff = Cell::ffLimits();
+    FeedForwardOutputLimits ff = Cell::feedForwardLimits();
     ff.max_voltage = 1.5;
     Cell cell(100 + sequence, limits, ff);
     cell.grid = true;

@@ -323,7 +323,7 @@ TEST(LiveDiagnostics, ValveReportsTheSweepAndTheModelInUse) {
   ValveSweep sweep{SweepLimits()};
   ServoValveParameters configured;
   ServoValveFit none;
-  HealthReport r = valveHealth(sweep, configured, none);
+  HealthReport r = valveHealth(sweep, configured, none, none);
   EXPECT_EQ(r.level, HealthLevel::kOk);
   EXPECT_EQ(r.message, "not identified yet (configured model in use)");
   EXPECT_EQ(r.value("sweep"), "idle");
@@ -331,7 +331,7 @@ TEST(LiveDiagnostics, ValveReportsTheSweepAndTheModelInUse) {
   fit.success = true;
   fit.parameters = configured;
   fit.reduced_chi_square = 30.0;
-  r = valveHealth(sweep, configured, fit);
+  r = valveHealth(sweep, configured, fit, fit);
   EXPECT_EQ(r.level, HealthLevel::kWarn);
   EXPECT_NE(r.message.find("chi2/dof 30.0"), std::string::npos);
 }

@@ -12,6 +12,16 @@
 
 namespace die_cushion_ident {
 
+/// A pressure set-point as the feed-forward takes it: its newest value [Pa], its rate [Pa/s] and how far
+/// [s] ahead it is wanted (the valve's lag plus the set-point's own age): the pressure then is
+/// pressure + rate * horizon.
+struct SetpointAhead {
+  double pressure = 0.0;
+  double rate = 0.0;
+  double horizon = 0.0;
+  double ahead() const { return pressure + rate * horizon; }
+};
+
 /// The identified model turned round (paper, Fig. 19): the valve command that makes the cushion follow a
 /// desired pressure trajectory at the measured motion, for the cell controller to add to its PI output.
 ///
@@ -40,20 +50,30 @@ class PressureFeedForward {
   /// New identified parameters (same model); throws std::invalid_argument as the constructor.
   void setParameters(const ParameterVector& physical);
 
-  /// Spool opening [-] (in [-1, 1]) that makes the model's pressure rate equal dp_ref at p_ref (within the
-  /// dead band's interpolation), x taken within the stroke; NaN (and `refusal`, if given) where the inputs
-  /// are not finite or the chamber's compliance there is not positive.
-  double spoolOpening(double p_ref, double dp_ref, double x, double v, std::string* refusal = nullptr) const;
-  /// The feed-forward voltage [V] for a reference pressure [Pa] and its rate [Pa/s] at position x [m],
-  /// velocity v [m/s], all taken leadTime() ahead; NaN, with the reason in `refusal` (may be null), where
-  /// spoolOpening gives none.
-  double command(double p_ref, double dp_ref, double x, double v, std::string* refusal = nullptr) const;
+  /// Spool opening [-] (in [-1, 1]) that makes the model's pressure rate equal the set-point's rate (within
+  /// the dead band's interpolation), x taken within the stroke; NaN (and `refusal`, if given) where the
+  /// inputs are not finite, the chamber's compliance is not positive or a steeper rise would not open the
+  /// valve further towards supply.
+  double spoolOpening(const SetpointAhead& setpoint, double x, double v,
+                      std::string* refusal = nullptr) const;
+  /// The same for a set-point taken as it is (no horizon): p_ref [Pa], dp_ref [Pa/s].
+  double spoolOpening(double p_ref, double dp_ref, double x, double v, std::string* refusal = nullptr) const {
+    return spoolOpening(SetpointAhead{p_ref, dp_ref, 0.0}, x, v, refusal);
+  }
+  /// The feed-forward voltage [V] for the set-point at position x [m], velocity v [m/s], these taken
+  /// leadTime() ahead; NaN, with the reason in `refusal` (may be null), where spoolOpening gives none.
+  double command(const SetpointAhead& setpoint, double x, double v, std::string* refusal = nullptr) const;
+  double command(double p_ref, double dp_ref, double x, double v, std::string* refusal = nullptr) const {
+    return command(SetpointAhead{p_ref, dp_ref, 0.0}, x, v, refusal);
+  }
   /// [s] how far ahead the trajectory should be taken: the valve's dead time plus 2 D / w0.
   double leadTime() const { return lead_; }
 
  private:
   /// The wanted valve flow's inverse over the characteristic at `s` (s.y is set on the way).
   double invert(double wanted, HydraulicSignals& s) const;
+  /// The opening for `setpoint` without the monotonicity check; NaN with `refusal` where there is none.
+  double opening(const SetpointAhead& setpoint, double x, double v, std::string* refusal) const;
 
   const HydraulicModel& model_;
   ParameterVector physical_;
@@ -82,8 +102,9 @@ class PressureReference {
 
   explicit PressureReference(const SetpointLimits& limits = {}) : limits_(limits) {}
   Push push(double stamp, double pressure, double arrival_steady);
-  /// {pressure, rate} at `now.clock + ahead` [Pa, Pa/s], or nothing (the reason in `why`, if given).
-  std::optional<std::pair<double, double>> at(Instant now, double ahead, std::string* why = nullptr) const;
+  /// The set-point to take `ahead` [s] of `now.clock` (its newest value, its rate, the horizon from its
+  /// stamp, bounded by max_age + ahead), or nothing (the reason in `why`, if given).
+  std::optional<SetpointAhead> at(Instant now, double ahead, std::string* why = nullptr) const;
   bool received() const { return !samples_.empty() || count_ > 0; }
   double newestStamp() const { return samples_.empty() ? -1e18 : samples_.back().first; }
   std::uint64_t rejected() const { return rejected_; }

@@ -32,8 +32,9 @@ struct SupervisionFault {
 /// and ramps the feed-forward out (at its slew rate) when
 ///  - an input has not *arrived* within sweep_signal_timeout (a dead bus, a dead sensor), or arrived stamped
 ///    beyond sweep_max_clock_offset off the clock (PlantSignals);
-///  - the clock jumped back or by more than a second, or has not advanced for sweep_signal_timeout (a
-///    stopped /clock: the experiment's command timer, on that clock, stops with it);
+///  - the clock jumped back (trusted again two timeouts later) or has not advanced for sweep_signal_timeout
+///    (a stopped /clock: the experiment's command timer, on that clock, stops with it); a leap forward is
+///    told by the stamps, which stay behind it (PlantSignals), or, where they leap too, harmless;
 ///  - an experiment's command has not been sent for sweep_signal_timeout (the command path stalled), or it
 ///    runs beyond its duration limit;
 ///  - the feed-forward has had no grid sample for sweep_signal_timeout, or was switched off.
@@ -90,6 +91,7 @@ class ValveSupervisor {
   double feedForwardOutput() const { return output_.last(); }
   bool feedForwardEngaged() const { return output_.last() != 0.0; }
   bool feedForwardEnabled() const { return enabled_; }
+  double feedForwardSlewRate() const { return output_.limits().slew_rate; }
   /// What the feed-forward sends and why, in words ("2.31 V: the identified model's feed-forward").
   std::string feedForwardState() const;
   /// Why the clock cannot be trusted now ("" when it can).

@@ -54,9 +54,10 @@ HealthReport inputHealth(const InputState& input);
 /// (ParameterInfo bounds, the same check as analyze_bag's) by more than kImplausibleSigmas stds.
 HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimate& estimate);
 
-/// The sweep's progress, or the valve model in use and how well the last sweep's fit explains its points.
+/// The sweep's progress, or the valve model in use and how well the last successful sweep's fit
+/// (`last_fit`) explains its points; WARN where the last finished sweep's own fit (`last_sweep`) failed.
 HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& model_in_use,
-                         const ServoValveFit& last_fit);
+                         const ServoValveFit& last_sweep, const ServoValveFit& last_fit);
 
 /// [s] how long a refused valve experiment keeps the experiments' diagnostic at WARN.
 constexpr double kRecentRefusal = 30.0;

@@ -22,6 +22,8 @@ class ValveExperiments {
   explicit ValveExperiments(const SweepLimits& limits);
   /// How long the amplifier holds each command [s] (ValveSweep::setCommandHold).
   void setCommandHold(double seconds) { sweep_.setCommandHold(seconds); }
+  /// ValveSweep::setFitOnFinish.
+  void setSweepFitOnFinish(bool fit) { sweep_.setFitOnFinish(fit); }
 
   /// Empty when started, else why not (another experiment running, or the experiment's own interlocks).
   std::string startSweep(const SweepRequest& request, Instant now, const PlantCondition& plant);

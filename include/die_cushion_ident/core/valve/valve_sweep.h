@@ -120,6 +120,10 @@ class ValveSweep {
   /// How long the amplifier holds each command [s] (0 = a continuous command; NaN, the default, = the
   /// command period). The measured response is divided by the hold's response.
   void setCommandHold(double seconds) { command_hold_ = seconds; }
+  /// Whether the sweep fits the valve model itself when its last frequency is measured (the default).
+  /// Where the sweep runs under a lock that the valve's supervision shares (the node), the fit (tens of ms
+  /// for hundreds of frequencies) is the caller's, from points(), after the hand-back went out.
+  void setFitOnFinish(bool fit) { fit_on_finish_ = fit; }
   void abort(const std::string& reason);
 
   State state() const { return state_; }
@@ -133,7 +137,7 @@ class ValveSweep {
   double currentFrequency() const;
   /// Points measured so far, by frequency, phases unwrapped.
   const std::vector<FrequencyResponsePoint>& points() const { return points_; }
-  /// The model fit once finished.
+  /// The model fit once finished (where setFitOnFinish(false): never, the caller fits points()).
   const ServoValveFit& fit() const { return fit_; }
 
  private:
@@ -154,6 +158,7 @@ class ValveSweep {
   ServoValveFit fit_;
   bool offset_owed_ = false;
   double command_hold_ = std::numeric_limits<double>::quiet_NaN();
+  bool fit_on_finish_ = true;
 };
 
 const char* sweepStateName(ValveSweep::State state);
