@@ -151,21 +151,22 @@ void rewriteTemperature(const std::string& in, const std::string& out,
 TEST_F(OilTemperature, BadTemperatureMessagesAreRejectedCountedSaidAndLoseNothing) {
   const std::string bag = kWork + "/steady";
   ASSERT_EQ(run(kTools + "/simulate_bag " + bag +
-                ".bag --press small_stiff --variation 2 --cycles 8 "
+                ".bag --press small_stiff --variation 2 --cycles 5 "
                 "--plant-effects leakage --oil-temperature 55 --seed 9 --write-config " +
                 bag + ".yaml")
                 .status,
             0);
-  // The last temperature holds 2 s (default 10 s): a silence of 6 s in the 14 s recording leaves 2 s unknown.
-  std::ofstream(bag + ".yaml", std::ios::app) << "oil_temperature_max_age: 2\n";
+  // The last temperature holds 1 s (default 10 s): a silence of 2.5 s in the 9 s recording leaves 0.5 s
+  // unknown.
+  std::ofstream(bag + ".yaml", std::ios::app) << "oil_temperature_max_age: 1\n";
   const YAML::Node clean = analyze(bag + ".bag", "clean", "--config " + bag + ".yaml --effects leakage");
-  EXPECT_EQ(clean["input"]["topics"]["oil_temperature"]["messages"].as<int>(), 29) << "2 Hz over 14 s";
+  EXPECT_EQ(clean["input"]["topics"]["oil_temperature"]["messages"].as<int>(), 18) << "2 Hz over 9 s";
   rewriteTemperature(bag + ".bag", bag + "_bad.bag", [](int i, sensor_msgs::Temperature& m) {
     if (i == 3 || i == 4) m.temperature = std::nan("");
     if (i == 7) m.temperature = 1e6;     // absurd
     if (i == 9) m.temperature = -300.0;  // below absolute zero
     if (i == 12) m.temperature += 25.0;  // a spike the next message does not confirm
-    return !(i >= 14 && i < 26);         // 6 s silent
+    return !(i >= 13 && i < 17);         // 2.5 s silent
   });
   const YAML::Node bad = analyze(bag + "_bad.bag", "bad", "--config " + bag + ".yaml --effects leakage");
   const YAML::Node topic = bad["input"]["topics"]["oil_temperature"];
@@ -230,7 +231,7 @@ TEST_F(OilTemperature, TheTrendComparesAtTheReferenceTemperatureAndStatesWhatItC
     char command[512];
     std::snprintf(
         command, sizeof(command),
-        "%s/simulate_bag %s/day%02d.bag --press fast_mechanical --variation 4 --cycles 6 --plant-effects "
+        "%s/simulate_bag %s/day%02d.bag --press fast_mechanical --variation 4 --cycles 4 --plant-effects "
         "leakage --oil-temperature %.1f --seed %d --epoch %.0f --write-config %s/press.yaml "
         "--write-truth %s/truth.yaml",
         kTools.c_str(), bags.c_str(), day, oil[day], 100 + day, kFirstDay + 86400.0 * day, kWork.c_str(),

@@ -169,9 +169,8 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
 void OfflineAnalysis::pushOilTemperature(const StreamSample& sample) {
   ++messages_;
   ++oil_received_;
+  // Every accepted message, for the grid's temperature once all are in (settleOilTemperature).
   if (pipeline_.pushOilTemperature(sample) == UniformResampler::PushResult::kAccepted) {
-    // A jump confirmed by the messages after it ends the level before (OilTemperatureInput).
-    while (!oil_messages_.empty() && oil_messages_.back().first >= sample.stamp) oil_messages_.pop_back();
     oil_messages_.emplace_back(sample.stamp, sample.first);
   }
 }

@@ -277,7 +277,7 @@ DetectableChange SelfStartingCusum::smallestDetectableChange(int within, double 
   double low = 0.0, high = 1.0;
   while (detected(high * d.scatter) < probability && high < 1e4) high *= 2.0;
   if (!(high < 1e4)) return d;
-  for (int i = 0; i < 9; ++i) {  // to 0.2 % of the bracket
+  for (int i = 0; i < 8; ++i) {  // to 0.4 % of the bracket
     const double mid = 0.5 * (low + high);
     (detected(mid * d.scatter) < probability ? low : high) = mid;
   }
