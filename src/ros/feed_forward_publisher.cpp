@@ -110,6 +110,7 @@ double FeedForwardPublisher::wanted(const GridSample& g, const LiveIdentificatio
   const auto reference = reference_.at(SupervisedValve::now(), lead, &stale);
   if (!reference) return none(stale);
   std::string refusal;
+  feed_forward_->setOilTemperature(g.T);  // the oil_temperature effect's parameters at the oil as it is
   const double u = feed_forward_->command(*reference, g.x + lead * g.v + 0.5 * lead * lead * acceleration,
                                           g.v + lead * acceleration, &refusal);
   if (!std::isfinite(u)) return none(refusal);

@@ -37,6 +37,7 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   position_sub_ = nh_.subscribe("position", 1000, &IdentificationNode::onPosition, this);
   valve_sub_ =
       nh_.subscribe("valve", 1000, &IdentificationNode::onValve, this, ros::TransportHints().tcpNoDelay());
+  oil_temperature_sub_ = nh_.subscribe("oil_temperature", 10, &IdentificationNode::onOilTemperature, this);
   effects_srv_ = pnh_.advertiseService("set_effects", &IdentificationNode::setEffects, this);
   reset_srv_ = pnh_.advertiseService("reset", &IdentificationNode::reset, this);
 
@@ -77,6 +78,16 @@ void IdentificationNode::onValve(const ValveSignal::ConstPtr& msg) {
   valve_->valve(stamp, msg->voltage, msg->spool_position);
   push(InputStream::kValve, {stamp, msg->voltage, msg->spool_position});
   experiments_->poll();
+}
+
+void IdentificationNode::onOilTemperature(const sensor_msgs::Temperature::ConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto result = live_->pushOilTemperature(fromTemperatureMsg(*msg));
+  if (result == UniformResampler::PushResult::kAccepted) return;
+  last_oil_rejection_ = result == UniformResampler::PushResult::kHeld ? "stamped far off the other topics"
+                                                                      : pushResultText(result);
+  ROS_WARN_THROTTLE(5.0, "die_cushion_ident: oil_temperature message rejected: %s",
+                    last_oil_rejection_.c_str());
 }
 
 void IdentificationNode::push(InputStream stream, const StreamSample& sample) {
@@ -159,6 +170,15 @@ void IdentificationNode::addDiagnostics() {
       fill(s, report());
     };
   };
+  updater_.add("input oil_temperature", locked([this] {
+                 OilTemperatureState oil;
+                 oil.topic = nh_.resolveName("oil_temperature");
+                 oil.input = live_->pipeline().oilTemperature();
+                 oil.now = ros::Time::now().toSec();
+                 oil.last_rejection = last_oil_rejection_;
+                 oil.model_uses_it = live_->pipeline().identifier().model().oilStateParameter() >= 0;
+                 return oilTemperatureHealth(oil);
+               }));
   updater_.add("estimator", locked([this] {
                  return estimatorHealth(live_->pipeline().identifier().model(), live_->estimate());
                }));

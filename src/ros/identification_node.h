@@ -4,6 +4,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/JointState.h>
+#include <sensor_msgs/Temperature.h>
 
 #include <memory>
 #include <mutex>
@@ -42,6 +43,8 @@ class IdentificationNode {
   void onPressure(const sensor_msgs::FluidPressure::ConstPtr& msg);
   void onPosition(const sensor_msgs::JointState::ConstPtr& msg);
   void onValve(const ValveSignal::ConstPtr& msg);
+  /// The optional oil temperature (degC, as the message and the core have it).
+  void onOilTemperature(const sensor_msgs::Temperature::ConstPtr& msg);
   void push(InputStream stream, const StreamSample& sample);
   void reject(InputStream stream, const std::string& why);
   void onGridSample(const GridSample& g, const HydraulicIdentifier& identifier,
@@ -64,6 +67,7 @@ class IdentificationNode {
   std::uint64_t rejected_[kInputStreamCount] = {0, 0, 0};
   std::uint64_t wild_reported_[kInputStreamCount] = {0, 0, 0};  // wild stamps at the last diagnostic
   std::string last_rejection_[kInputStreamCount];
+  std::string last_oil_rejection_;
 
   // Everything that drives the valve, with its watchdog; destroyed after the services that use it, it sends
   // the valve back to its offset ("shutdown") and ramps the feed-forward out.
@@ -75,7 +79,7 @@ class IdentificationNode {
   ros::Time last_diagnostics_;  // when the diagnostics last ran (a later time earlier: the clock jumped back)
   ros::Timer diagnostic_timer_;
   // Last: shut down first, so that no callback reaches a member already destroyed.
-  ros::Subscriber pressure_sub_, position_sub_, valve_sub_;
+  ros::Subscriber pressure_sub_, position_sub_, valve_sub_, oil_temperature_sub_;
   ros::ServiceServer effects_srv_, reset_srv_;
 };
 

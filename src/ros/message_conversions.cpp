@@ -69,6 +69,23 @@ sensor_msgs::FluidPressure toFluidPressureMsg(const StreamSample& sample, const 
   return msg;
 }
 
+sensor_msgs::Temperature toTemperatureMsg(const StreamSample& sample, const ros::Time& stamp) {
+  sensor_msgs::Temperature msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = kCushionFrame;
+  msg.temperature = sample.first;
+  msg.variance = 0.0;  // unknown
+  return msg;
+}
+
+StreamSample fromTemperatureMsg(const sensor_msgs::Temperature& msg) {
+  StreamSample sample;
+  sample.stamp = msg.header.stamp.toSec();
+  sample.first = msg.temperature;
+  sample.second = std::numeric_limits<double>::quiet_NaN();
+  return sample;
+}
+
 sensor_msgs::JointState toJointStateMsg(const StreamSample& sample, const ros::Time& stamp,
                                         const SimulatedJoints& joints) {
   sensor_msgs::JointState msg;

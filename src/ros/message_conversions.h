@@ -10,12 +10,13 @@
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
 #include "die_cushion_ident/ValveSignal.h"
-#include "sensor_msgs/FluidPressure.h"
-#include "sensor_msgs/JointState.h"
 #include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/simulation/press_cycle.h"
 #include "die_cushion_ident/core/valve/servo_valve_fit.h"
-#include "die_cushion_ident/core/signal/uniform_resampler.h"
+#include "sensor_msgs/FluidPressure.h"
+#include "sensor_msgs/JointState.h"
+#include "sensor_msgs/Temperature.h"
 
 namespace die_cushion_ident {
 
@@ -55,6 +56,10 @@ struct SimulatedJoints {
 // A simulated measurement as a press publishes it, shared by the simulator node and simulate_bag so that a
 // recorded bag and the live topics are the same messages.
 sensor_msgs::FluidPressure toFluidPressureMsg(const StreamSample& sample, const ros::Time& stamp);
+/// The oil's temperature (sample.first, degC: sensor_msgs/Temperature has it in degC, and so does the core).
+sensor_msgs::Temperature toTemperatureMsg(const StreamSample& sample, const ros::Time& stamp);
+/// A Temperature message as the core takes it: stamp [s] and temperature [degC] (no conversion).
+StreamSample fromTemperatureMsg(const sensor_msgs::Temperature& msg);
 /// Positions (and velocities where the sample has one) of every joint: the cushion's is the sample's; the
 /// ram rides 0.3 m above it and any other joint follows at a tenth of its stroke.
 sensor_msgs::JointState toJointStateMsg(const StreamSample& sample, const ros::Time& stamp,

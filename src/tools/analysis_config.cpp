@@ -88,17 +88,19 @@ void readNumber(const std::string& key, const YAML::Node& value, IdentificationC
 
 void readTopics(const YAML::Node& value, InputTopics* topics, std::vector<std::string>* problems) {
   if (!value.IsMap()) {
-    problems->push_back("topics: must be a mapping {pressure: ..., position: ..., valve: ...}");
+    problems->push_back(
+        "topics: must be a mapping {pressure: ..., position: ..., valve: ..., oil_temperature: ...}");
     return;
   }
   for (const auto& topic : value) {
     const std::string name = topic.first.as<std::string>();
-    std::string* target = name == "pressure"   ? &topics->pressure
-                          : name == "position" ? &topics->position
-                          : name == "valve"    ? &topics->valve
-                                               : nullptr;
+    std::string* target = name == "pressure"          ? &topics->pressure
+                          : name == "position"        ? &topics->position
+                          : name == "valve"           ? &topics->valve
+                          : name == "oil_temperature" ? &topics->oil_temperature
+                                                      : nullptr;
     if (!target || !topic.second.IsScalar()) {
-      problems->push_back("topics: '" + name + "' is not one of pressure, position, valve");
+      problems->push_back("topics: '" + name + "' is not one of pressure, position, valve, oil_temperature");
       continue;
     }
     *target = topic.second.as<std::string>();

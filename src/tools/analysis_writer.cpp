@@ -229,6 +229,22 @@ void emitInput(YAML::Emitter& out, const AnalysisInput& input, const OfflineResu
     out << YAML::Key << "gaps" << YAML::Value << h.gaps;
     out << YAML::EndMap;
   }
+  if (r.oil_temperature) {  // the optional topic, where the recording has it
+    const StreamHealth& h = r.oil_temperature->health;
+    out << YAML::Key << "oil_temperature" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "topic" << YAML::Value << input.oil_temperature_topic;
+    out << YAML::Key << "messages" << YAML::Value << input.oil_temperature_messages;
+    out << YAML::Key << "rate" << YAML::Value << h.rate();
+    out << YAML::Key << "rejected" << YAML::Value
+        << (input.oil_temperature_unusable + h.non_finite + h.duplicates + h.out_of_order + h.implausible +
+            h.wild_stamps);
+    out << YAML::Key << "implausible" << YAML::Value << h.implausible;
+    out << YAML::Key << "wild_stamps" << YAML::Value << h.wild_stamps;
+    out << YAML::Key << "gaps" << YAML::Value << h.gaps;
+    if (std::isfinite(r.oil_temperature->stamp_offset))
+      out << YAML::Key << "stamp_offset" << YAML::Value << r.oil_temperature->stamp_offset;
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
   out << YAML::Key << "time_base_restarts" << YAML::Value << r.restarts;
   out << YAML::Key << "joint_name" << YAML::Value << (input.joint_name.empty() ? "(default)" : input.joint_name);
@@ -275,6 +291,37 @@ void emitModel(YAML::Emitter& out, const IdentificationConfig& config, const Off
     out << YAML::Key << "message" << YAML::Value << r.output_error->message;
     out << YAML::EndMap;
   }
+  out << YAML::EndMap;
+}
+
+// The recording's oil temperature, and the parameters carried to the reference temperature.
+void emitOilTemperature(YAML::Emitter& out, const OilTemperatureRecord& oil) {
+  if (oil.health.accepted == 0) return;
+  out << YAML::Key << "oil_temperature" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "unit" << YAML::Value << "degC";
+  out << YAML::Key << "mean" << YAML::Value << oil.mean;
+  out << YAML::Key << "min" << YAML::Value << oil.lowest;
+  out << YAML::Key << "max" << YAML::Value << oil.highest;
+  out << YAML::Key << "range" << YAML::Value << oil.highest - oil.lowest;
+  // The temperature model.parameters hold at: the analysed grid's mean.
+  if (std::isfinite(oil.origin)) out << YAML::Key << "parameters_at" << YAML::Value << oil.origin;
+  out << YAML::Key << "share_of_samples" << YAML::Value << oil.grid_share;
+  out << YAML::EndMap;
+  if (oil.at_reference.empty()) return;
+  out << YAML::Key << "reference_temperature" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "temperature" << YAML::Value << oil.reference;
+  out << YAML::Key << "unit" << YAML::Value << "degC";
+  out << YAML::Key << "from" << YAML::Value << oil.origin;
+  out << YAML::Key << "parameters" << YAML::Value << YAML::BeginSeq;
+  for (const ParameterAtTemperature& p : oil.at_reference) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name << YAML::Key
+        << "value" << YAML::Value << p.value << YAML::Key << "std" << YAML::Value << p.std << YAML::Key
+        << "unit" << YAML::Value << p.unit << YAML::Key << "std_parts" << YAML::Value << YAML::BeginMap
+        << YAML::Key << "recording" << YAML::Value << p.recording << YAML::Key << "coefficients"
+        << YAML::Value << p.coefficients << YAML::EndMap << YAML::Key << "law" << YAML::Value << p.law
+        << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
   out << YAML::EndMap;
 }
 
@@ -457,6 +504,7 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   emitInput(out, input, r);
   emitSettings(out, config, r.settings);
   emitModel(out, config, r);
+  if (r.oil_temperature) emitOilTemperature(out, *r.oil_temperature);
   emitFit(out, r);
   emitCandidates(out, r.ranking);
   emitProposals(out, r.ranking);
@@ -666,7 +714,7 @@ AnalysisWriter::AnalysisWriter(const std::string& directory, const Identificatio
                                const OfflineResult& result, const std::vector<GridSample>& grid)
     : directory_(directory),
       config_(config),
-      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)) {
+      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil)) {
   // A reused output folder must not keep a previous run's files (a stale frequency_response.csv would
   // describe another recording), whole or partial.
   for (const char* name : kOutputs) {

@@ -23,6 +23,9 @@ struct AnalysisInput {
   double duration = 0.0;  ///< [s] of the bag
   double start = 0.0;     ///< [s] record time of its first message (seconds since the epoch)
   std::string joint_name;  ///< configured cushion joint ("" = the only one / position[0])
+  std::string oil_temperature_topic;           ///< the optional oil temperature's topic
+  std::uint64_t oil_temperature_messages = 0;  ///< its messages in the bag
+  std::uint64_t oil_temperature_unusable = 0;  ///< of them damaged
 };
 
 /// Writes DIR/summary.yaml (interface contract), DIR/analysis.bag (the online estimates, the model

@@ -7,6 +7,7 @@
 #include <rosbag/bag.h>
 #include <sensor_msgs/FluidPressure.h>
 #include <sensor_msgs/JointState.h>
+#include <sensor_msgs/Temperature.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -41,9 +42,11 @@ const char* kUsage =
     "[--propose] [--fixed-settings] [--jobs N] [--quiet]\n"
     "  Identifies the die cushion's hydraulics and valve from a recorded bag and writes DIR/summary.yaml,\n"
     "  DIR/analysis.bag and CSV files. Library effects: leakage, entrained_air, valve_overlap, "
-    "tank_pressure.\n"
+    "tank_pressure,\n"
+    "  oil_temperature (where the bag holds the oil temperature).\n"
     "  The config file holds the geometry (piston_area, stroke_length, supply_pressure), any setting of\n"
-    "  doc/configuration.md, effects, custom_effects and topics: {pressure, position, valve}.\n"
+    "  doc/configuration.md, effects, custom_effects and topics: {pressure, position, valve,\n"
+    "  oil_temperature}.\n"
     "  --propose searches formulas for the error the library leaves even when it is not structured (by\n"
     "  default the search runs only when it is).\n"
     "  The sample period, filter widths and identification period are chosen from the recording's first\n"
@@ -107,6 +110,7 @@ struct BagPass {
   bool unclosed = false;  // killed while recording: the last chunk still open (rosbag record's .bag.active)
   std::uint64_t bytes_read = 0, file_size = 0;
   std::set<std::string> present;    // input topics seen
+  std::string oil_temperature_problem;  // the oil temperature topic is there but cannot be read
   std::string listing;              // every topic of the bag, for a message when none is an input
   double first = NAN, last = NAN;   // [s] record times of the first and last message
 };
@@ -140,6 +144,14 @@ class SurveyThenAnalysis {
     analysis_->push(stream, sample);
     if (survey_) survey_->push(stream, sample);  // keeps nothing once it has its seconds
   }
+  /// The optional oil temperature: kept while the survey runs (it does not need it), then the analysis's.
+  void pushOilTemperature(const StreamSample& sample) {
+    if (!analysis_) {
+      survey_oil_.push_back(sample);
+      return;
+    }
+    analysis_->pushOilTemperature(sample);
+  }
   /// The analysis, its settings chosen (at the end of a recording shorter than the survey, now).
   OfflineAnalysis& analysis() {
     if (!analysis_) chooseAndStart();
@@ -171,7 +183,15 @@ class SurveyThenAnalysis {
       log_(setting.key + " = " + formatted("%g", setting.value) + ": " + setting.reason);
     }
     start(choice_->config);
-    for (const auto& [stream, sample] : survey_->messages()) analysis_->push(stream, sample);
+    // The kept messages in their order, the oil temperature's among them by stamp.
+    std::size_t oil = 0;
+    for (const auto& [stream, sample] : survey_->messages()) {
+      while (oil < survey_oil_.size() && !(survey_oil_[oil].stamp > sample.stamp))
+        analysis_->pushOilTemperature(survey_oil_[oil++]);
+      analysis_->push(stream, sample);
+    }
+    while (oil < survey_oil_.size()) analysis_->pushOilTemperature(survey_oil_[oil++]);
+    survey_oil_.clear();
     survey_.reset();
   }
 
@@ -179,6 +199,7 @@ class SurveyThenAnalysis {
   int jobs_;
   std::function<void(const std::string&)> log_;
   std::unique_ptr<SettingsFromRecording> survey_;
+  std::vector<StreamSample> survey_oil_;  // the oil temperature's messages while the survey runs
   std::unique_ptr<OfflineAnalysis> analysis_;
   std::optional<SettingsChoice> choice_;
   double expected_ = 0.0;
@@ -186,24 +207,29 @@ class SurveyThenAnalysis {
 
 const char* const kInputTypes[kInputStreamCount] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
                                                     "die_cushion_ident/ValveSignal"};
+// The optional oil temperature topic's index among the connections' classes (after the three inputs).
+constexpr int kOilTemperatureTopic = kInputStreamCount;
+constexpr const char* kOilTemperatureType = "sensor_msgs/Temperature";
 
 // The bag's connections as input streams: each classified once (its topic and definition compared), not
-// each of its messages: its input stream, -1 for another topic, -2 for a definition (md5sum) other than
-// this package's.
+// each of its messages: its input stream (kOilTemperatureTopic for the optional oil temperature), -1 for
+// another topic, -2 for a definition (md5sum) other than this package's.
 class InputConnections {
  public:
-  explicit InputConnections(const std::string names[]) : names_(names) {}
+  InputConnections(const std::string names[], const std::string& oil_temperature)
+      : names_(names), oil_temperature_(oil_temperature) {}
   int streamOf(const BagStreamReader::Connection& c) const {
     for (int s = 0; s < kInputStreamCount; ++s) {
       if (c.topic == names_[s]) return s;
     }
-    return -1;
+    return c.topic == oil_temperature_ ? kOilTemperatureTopic : -1;
   }
   int classify(const BagStreamReader::Connection* c) {
-    static const std::string kMd5[kInputStreamCount] = {
+    static const std::string kMd5[kInputStreamCount + 1] = {
         ros::message_traits::MD5Sum<sensor_msgs::FluidPressure>::value(),
         ros::message_traits::MD5Sum<sensor_msgs::JointState>::value(),
-        ros::message_traits::MD5Sum<ValveSignal>::value()};
+        ros::message_traits::MD5Sum<ValveSignal>::value(),
+        ros::message_traits::MD5Sum<sensor_msgs::Temperature>::value()};
     for (const auto& [known, s] : classified_) {
       if (known == c) return s;
     }
@@ -215,6 +241,7 @@ class InputConnections {
 
  private:
   const std::string* names_;
+  std::string oil_temperature_;
   std::vector<std::pair<const BagStreamReader::Connection*, int>> classified_;
 };
 
@@ -286,8 +313,8 @@ void keepReadersFindings(const BagStreamReader& reader, BagPass& pass) {
 // the recording's length, damage ends the reading with a reason); counts per topic in `input`. The analysis
 // takes the messages on a thread of its own while this one reads and decodes the next (BatchPipe): one after
 // the other, an hour's bag took the reading's 5 s plus the pipeline's.
-BagPass readInputs(const std::string& path, const std::string names[], const std::string& joint_name,
-                   SurveyThenAnalysis& analysis, AnalysisInput& input,
+BagPass readInputs(const std::string& path, const std::string names[], const std::string& oil_topic,
+                   const std::string& joint_name, SurveyThenAnalysis& analysis, AnalysisInput& input,
                    const std::function<void(const std::string&)>& log) {
   BagPass pass;
   JointSelector joints(joint_name);
@@ -297,16 +324,29 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   analysis.expect(reader->indexedSpan());
   log("reading " + std::to_string(pass.file_size >> 20) + " MB from " + input.bag);
   for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = input.unusable[s] = 0;
+  input.oil_temperature_messages = input.oil_temperature_unusable = 0;
   auto last_report = std::chrono::steady_clock::now();
   std::uint64_t done = 0;
   sensor_msgs::JointState joint_state;
-  InputConnections connections(names);
-  BatchPipe<std::pair<InputStream, StreamSample>> to_analysis(
-      [&analysis](const std::pair<InputStream, StreamSample>& m) { analysis.push(m.first, m.second); });
+  InputConnections connections(names, oil_topic);
+  BatchPipe<std::pair<int, StreamSample>> to_analysis([&analysis](const std::pair<int, StreamSample>& m) {
+    if (m.first == kOilTemperatureTopic) {
+      analysis.pushOilTemperature(m.second);
+    } else {
+      analysis.push(static_cast<InputStream>(m.first), m.second);
+    }
+  });
   const auto on_connection = [&](const BagStreamReader::Connection& c) {
     pass.listing += "\n  " + c.topic + " (" + c.datatype + ")";
     const int s = connections.streamOf(c);
     if (s < 0) return;
+    if (s == kOilTemperatureTopic) {  // optional: a wrong type loses the temperature, not the analysis
+      if (c.datatype != kOilTemperatureType) {
+        pass.oil_temperature_problem = "topic " + oil_topic + " has type " + c.datatype + ", expected " +
+                                       kOilTemperatureType + ": the oil temperature was not read";
+      }
+      return;
+    }
     if (c.datatype != kInputTypes[s]) {
       throw WrongTopicType{"topic " + names[s] + " has type " + c.datatype + ", expected " + kInputTypes[s] +
                            " (set the topics in the config file if the inputs are elsewhere)"};
@@ -322,10 +362,22 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
       ++pass.mismatched;
       return;
     }
+    if (s == kOilTemperatureTopic) {
+      if (!pass.oil_temperature_problem.empty()) return;
+      ++input.oil_temperature_messages;
+      StreamSample sample{0.0, 0.0, NAN};
+      if (!decodeTemperature(m.data, m.size, &sample.stamp, &sample.first)) {
+        ++input.oil_temperature_unusable;
+        ++pass.damaged;
+        return;
+      }
+      to_analysis.push({kOilTemperatureTopic, sample});
+      return;
+    }
     ++input.messages[s];
     StreamSample sample{0.0, 0.0, NAN};
     if (!decodeInput(m, s, joints, joint_state, sample, pass, input)) return;
-    to_analysis.push({static_cast<InputStream>(s), sample});
+    to_analysis.push({s, sample});
     // Progress every 2 s on long bags.
     if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
       last_report = std::chrono::steady_clock::now();
@@ -430,6 +482,8 @@ void skippedMessages(const BagPass& pass, const std::string (&names)[kInputStrea
   }
   if (!pass.joint_ambiguity.empty())
     warnings->push_back({WarningCode::kJointAmbiguous, pass.joint_ambiguity});
+  if (!pass.oil_temperature_problem.empty())
+    warnings->push_back({WarningCode::kOilTemperature, pass.oil_temperature_problem});
 }
 
 // "1 record" / "N records".
@@ -665,12 +719,14 @@ int run(int argc, char** argv) {
   input.bag = options.bag;
   input.joint_name = topics.joint_name;
   for (int s = 0; s < kInputStreamCount; ++s) input.topics[s] = names[s];
+  input.oil_temperature_topic = topics.oil_temperature;
   const auto started = std::chrono::steady_clock::now();
 
   const std::set<std::string> configured(configuration.keys.begin(), configuration.keys.end());
   if (options.fixed_settings) takeConfiguredValveModel(configured, &config);
   SurveyThenAnalysis surveyed(config, configured, !options.fixed_settings, options.jobs, log);
-  BagPass pass = readInputs(options.bag, names, topics.joint_name, surveyed, input, log);
+  BagPass pass =
+      readInputs(options.bag, names, topics.oil_temperature, topics.joint_name, surveyed, input, log);
   OfflineAnalysis* analysis = &surveyed.analysis();
   config = surveyed.config();
   failIfNothingToAnalyse(pass, names, input, options.bag);
@@ -689,7 +745,7 @@ int run(int argc, char** argv) {
     delays_applied = config.topicDelaysSet();  // set by estimateClockOffsets where they matter
     if (delays_applied) {
       reread = std::make_unique<SurveyThenAnalysis>(config, configured, false, options.jobs, log);
-      pass = readInputs(options.bag, names, topics.joint_name, *reread, input, log);
+      pass = readInputs(options.bag, names, topics.oil_temperature, topics.joint_name, *reread, input, log);
       analysis = &reread->analysis();
     }
   }

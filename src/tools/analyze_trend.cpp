@@ -232,6 +232,11 @@ struct Recording {
   std::string bag;
   double start = 0.0, duration = 0.0, simulation_error_rms = 0.0;
   std::vector<Parameter> parameters;  // the model's, then the valve's (valve_*) when a sweep was found
+  /// [degC] the oil temperature the parameters hold at (NaN: none recorded), and the model's parameters at
+  /// the reference temperature (their std the recording's own part: the coefficients' is regressed out).
+  double oil_temperature = std::nan("");
+  double reference_temperature = std::nan("");
+  std::map<std::string, Parameter> at_reference;
   std::map<std::string, std::string> verdicts;
   std::string conclusion;
 };
@@ -247,6 +252,19 @@ Recording readRecording(const BagJob& job) {
                             p["std"].as<double>()});
   }
   r.simulation_error_rms = s["fit"]["simulation_error_rms"].as<double>(std::nan(""));
+  if (const YAML::Node oil = s["oil_temperature"]; oil && oil["parameters_at"]) {
+    r.oil_temperature = oil["parameters_at"].as<double>(std::nan(""));
+  }
+  if (const YAML::Node reference = s["reference_temperature"]; reference && reference["parameters"]) {
+    r.reference_temperature = reference["temperature"].as<double>(std::nan(""));
+    for (const auto& p : reference["parameters"]) {
+      const double recording = p["std_parts"] ? p["std_parts"]["recording"].as<double>(std::nan(""))
+                                              : p["std"].as<double>(std::nan(""));
+      r.at_reference[p["name"].as<std::string>()] = {p["name"].as<std::string>(),
+                                                     p["unit"].as<std::string>(""),
+                                                     p["value"].as<double>(std::nan("")), recording};
+    }
+  }
   for (const auto& c : s["candidates"]) r.verdicts[c["effect"].as<std::string>()] = c["verdict"].as<std::string>();
   r.conclusion = s["conclusion"].as<std::string>("");
   const YAML::Node valve = s["valve"];
@@ -265,12 +283,17 @@ std::string csvNumber(double v) { return std::isfinite(v) ? formatted("%.9g", v)
 
 void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Recording>& rows,
               const std::vector<std::string>& names, const std::vector<std::string>& effects,
-              const std::string& config_name) {
+              const std::string& config_name, bool temperatures) {
   std::ofstream csv(files.add(path));
   csv << "bag,start,start_stamp,duration,config";
   for (const auto& n : names) csv << "," << n << "," << n << "_std";
   csv << ",simulation_error_rms";
   for (const auto& e : effects) csv << ",verdict_" << e;
+  // Where the recordings hold the oil temperature: it, and each parameter at the reference temperature.
+  if (temperatures) {
+    csv << ",oil_temperature";
+    for (const auto& n : names) csv << "," << n << "_at_reference," << n << "_at_reference_std";
+  }
   csv << "\n";
   for (const auto& r : rows) {
     csv << '"' << r.bag << "\"," << isoTime(r.start) << "," << formatted("%.3f", r.start) << ","
@@ -282,6 +305,14 @@ void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Rec
     }
     csv << "," << csvNumber(r.simulation_error_rms);
     for (const auto& e : effects) csv << "," << (r.verdicts.count(e) ? r.verdicts.at(e) : "");
+    if (temperatures) {
+      csv << "," << csvNumber(r.oil_temperature);
+      for (const auto& n : names) {
+        const auto p = r.at_reference.find(n);
+        csv << "," << (p != r.at_reference.end() ? csvNumber(p->second.value) : "") << ","
+            << (p != r.at_reference.end() ? csvNumber(p->second.std) : "");
+      }
+    }
     csv << "\n";
   }
   closeChecked(csv, path);
@@ -353,22 +384,66 @@ std::vector<Recording> readRecordings(std::vector<BagJob>& jobs, YAML::Emitter& 
   return rows;
 }
 
-// Changes: a sequential test per parameter (each recording tested once, when it arrives). Returns how many.
+// What the trend tracks: the parameters at the reference temperature where the recordings hold the oil's
+// temperature (the weather taken out by the oil's law, and what the law leaves by a regression on the
+// temperature over the baseline), else as recorded.
+struct Tracking {
+  bool at_reference = false;
+  double reference = std::nan("");
+  std::size_t with_temperature = 0;
+};
+
+Tracking trackingOf(const std::vector<Recording>& rows) {
+  Tracking t;
+  for (const auto& r : rows) {
+    if (r.at_reference.empty() || !std::isfinite(r.oil_temperature)) continue;
+    ++t.with_temperature;
+    t.reference = r.reference_temperature;
+  }
+  t.at_reference = t.with_temperature > 0;
+  return t;
+}
+
+// One parameter's series as tracked: at the reference temperature with the oil temperature as covariate
+// (recordings without one left out), or as recorded.
+std::vector<TrendPoint> seriesOf(const std::vector<Recording>& rows, const std::string& name,
+                                 const Tracking& tracking) {
+  std::vector<TrendPoint> series;
+  for (const auto& r : rows) {
+    const auto p = r.at_reference.find(name);
+    if (tracking.at_reference && p != r.at_reference.end() && std::isfinite(r.oil_temperature)) {
+      series.push_back({r.start, p->second.value, p->second.std, r.oil_temperature});
+      continue;
+    }
+    // A recording without an oil temperature cannot be compared at the reference one.
+    if (tracking.at_reference && !std::isfinite(r.oil_temperature)) continue;
+    // As recorded (the valve's sweep parameters are not carried: the orifice barely depends on the oil), with
+    // the oil temperature as the covariate where there is one.
+    for (const auto& q : r.parameters) {
+      if (q.name == name) series.push_back({r.start, q.value, q.std, r.oil_temperature});
+    }
+  }
+  return series;
+}
+
+// Changes: a sequential test per parameter (each recording tested once, when it arrives). Returns how many;
+// each parameter's smallest detectable change goes to `detectable`.
 int emitParameterChanges(const std::vector<Recording>& rows, const std::vector<std::string>& names,
-                         std::map<std::string, std::string>& units, const SequentialDetectionOptions& detection,
-                         YAML::Emitter& yaml, const std::function<void(const std::string&)>& log) {
+                         std::map<std::string, std::string>& units,
+                         const SequentialDetectionOptions& detection, const Tracking& tracking,
+                         std::map<std::string, DetectableChange>* detectable, YAML::Emitter& yaml,
+                         const std::function<void(const std::string&)>& log) {
   int changes = 0;
   yaml << YAML::Key << "changes" << YAML::Value << YAML::BeginSeq;
   for (const auto& name : names) {
-    std::vector<TrendPoint> series;
-    for (const auto& r : rows) {
-      for (const auto& p : r.parameters) {
-        if (p.name == name) series.push_back({r.start, p.value, p.std});
-      }
-    }
-    for (const ParameterChange& change : detectChangesSequentially(series, detection)) {
+    const std::vector<TrendPoint> series = seriesOf(rows, name, tracking);
+    DetectableChange smallest;
+    const std::vector<ParameterChange> found = detectChangesSequentially(series, detection, &smallest);
+    (*detectable)[name] = smallest;
+    for (const ParameterChange& change : found) {
       const std::string start = isoTime(change.start_stamp);
-      const std::string words = explainChange(name, units[name], change, start.substr(0, 10));
+      std::string words = explainChange(name, units[name], change, start.substr(0, 10));
+      if (tracking.at_reference) words += formatted(" (compared at %.0f degC)", tracking.reference);
       yaml << YAML::Flow << YAML::BeginMap;
       yaml << YAML::Key << "parameter" << YAML::Value << name << YAML::Key << "shape" << YAML::Value << change.shape;
       yaml << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start;
@@ -376,6 +451,7 @@ int emitParameterChanges(const std::vector<Recording>& rows, const std::vector<s
       yaml << YAML::Key << "alarm" << YAML::Value << YAML::DoubleQuoted << isoTime(change.alarm_stamp);
       yaml << YAML::Key << "before" << YAML::Value << change.before << YAML::Key << "after" << YAML::Value
            << change.after << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
+      if (tracking.at_reference) yaml << YAML::Key << "at_temperature" << YAML::Value << tracking.reference;
       yaml << YAML::Key << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
       log("change: " + words);
       ++changes;
@@ -383,6 +459,56 @@ int emitParameterChanges(const std::vector<Recording>& rows, const std::vector<s
   }
   yaml << YAML::EndSeq;
   return changes;
+}
+
+// The oil temperature the recordings held, and the smallest change of each parameter the test can see with
+// the history it has (in words where no temperature was recorded: its swing is then in the scatter).
+void emitDetectableChanges(const std::vector<Recording>& rows, const std::vector<std::string>& names,
+                           std::map<std::string, std::string>& units, const Tracking& tracking,
+                           const std::map<std::string, DetectableChange>& detectable, YAML::Emitter& yaml) {
+  yaml << YAML::Key << "oil_temperature" << YAML::Value << YAML::BeginMap;
+  yaml << YAML::Key << "recordings_with" << YAML::Value << tracking.with_temperature;
+  yaml << YAML::Key << "tracked" << YAML::Value
+       << (tracking.at_reference ? "at_reference_temperature" : "as_recorded");
+  if (tracking.at_reference) {
+    yaml << YAML::Key << "reference_temperature" << YAML::Value << tracking.reference;
+    yaml << YAML::Key << "note" << YAML::Value
+         << formatted(
+                "each parameter compared at %.0f degC (carried there by the oil's law), the rest of the "
+                "temperature's influence regressed out over the baseline",
+                tracking.reference) +
+                (tracking.with_temperature < rows.size()
+                     ? formatted("; %.0f recordings without an oil temperature left out",
+                                 rows.size() - tracking.with_temperature)
+                     : std::string());
+  } else {
+    yaml << YAML::Key << "note" << YAML::Value
+         << "no recording holds an oil temperature (topic oil_temperature): the parameters are compared as "
+            "recorded, and the oil's swing between recordings is part of the scatter the changes must exceed "
+            "(smallest_change below); record the oil temperature to compare them at one temperature";
+  }
+  yaml << YAML::EndMap;
+  yaml << YAML::Key << "detectable_changes" << YAML::Value << YAML::BeginSeq;
+  for (const auto& name : names) {
+    const auto it = detectable.find(name);
+    if (it == detectable.end()) continue;
+    const DetectableChange& d = it->second;
+    yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "parameter" << YAML::Value << name;
+    if (std::isfinite(d.step)) {
+      yaml << YAML::Key << "smallest_change" << YAML::Value << d.step;
+      if (d.level != 0.0 && std::isfinite(d.level))
+        yaml << YAML::Key << "relative" << YAML::Value << std::abs(d.step / d.level);
+      yaml << YAML::Key << "scatter" << YAML::Value << d.scatter;
+    }
+    yaml << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
+    yaml << YAML::Key << "within_recordings" << YAML::Value << d.within << YAML::Key << "probability"
+         << YAML::Value << d.probability << YAML::Key << "baseline_recordings" << YAML::Value << d.baseline;
+    yaml << YAML::Key << "temperature_regressed" << YAML::Value << d.regressed;
+    if (!std::isfinite(d.step))
+      yaml << YAML::Key << "note" << YAML::Value << "too short a history since the last change";
+    yaml << YAML::EndMap;
+  }
+  yaml << YAML::EndSeq;
 }
 
 // A verdict change: an effect `missing` in the last recordings (at least 2 in a row) after at least 3
@@ -453,7 +579,8 @@ int run(int argc, char** argv) {
     }
   }
   OutputFiles files;  // trend.csv and trend.yaml, renamed when both are whole (a failure removes them)
-  writeCsv(files, o.out + "/trend.csv", rows, names, effects, config_name);
+  const Tracking tracking = trackingOf(rows);
+  writeCsv(files, o.out + "/trend.csv", rows, names, effects, config_name, tracking.at_reference);
 
   // The sequential tests are designed for the false alarms per press-year allowed, shared by every
   // parameter tested.
@@ -466,8 +593,13 @@ int run(int argc, char** argv) {
   yaml << YAML::Key << "recordings_per_year" << YAML::Value << o.recordings_per_year;
   yaml << YAML::Key << "recordings_between_false_alarms" << YAML::Value << detection.recordings_between_false_alarms;
   yaml << YAML::Key << "cusum_threshold" << YAML::Value << cusumThreshold(detection);
-  int changes = emitParameterChanges(rows, names, units, detection, yaml, log);
+  std::map<std::string, DetectableChange> detectable;
+  // At the reference temperature the values are compared relative to each other: what the oil's law missed is
+  // then a line in the temperature (doc/condition_monitoring.md).
+  detection.relative = tracking.at_reference;
+  int changes = emitParameterChanges(rows, names, units, detection, tracking, &detectable, yaml, log);
   changes += emitVerdictChanges(rows, effects, yaml, log);
+  emitDetectableChanges(rows, names, units, tracking, detectable, yaml);
   yaml << YAML::EndMap;
   {
     std::ofstream trend(files.add(o.out + "/trend.yaml"));

@@ -819,6 +819,12 @@ bool decodeFluidPressure(const std::uint8_t* data, std::uint32_t size, double* s
   return c.header(stamp) && c.f64(pressure) && c.f64(&variance);
 }
 
+bool decodeTemperature(const std::uint8_t* data, std::uint32_t size, double* stamp, double* celsius) {
+  Cursor c(data, size);
+  double variance = 0.0;
+  return c.header(stamp) && c.f64(celsius) && c.f64(&variance);
+}
+
 bool decodeValveSignal(const std::uint8_t* data, std::uint32_t size, double* stamp, double* voltage,
                        double* spool) {
   Cursor c(data, size);

@@ -178,6 +178,8 @@ class BagStreamReader {
 /// Bounds-checked decoding of the serialised messages analyze_bag reads; false for a damaged message (a
 /// length that does not fit), never an exception or a huge allocation.
 bool decodeFluidPressure(const std::uint8_t* data, std::uint32_t size, double* stamp, double* pressure);
+/// sensor_msgs/Temperature: stamp and temperature [degC].
+bool decodeTemperature(const std::uint8_t* data, std::uint32_t size, double* stamp, double* celsius);
 bool decodeValveSignal(const std::uint8_t* data, std::uint32_t size, double* stamp, double* voltage,
                        double* spool);
 /// JointState: stamp, names, positions and velocities (efforts skipped).

@@ -31,7 +31,7 @@ const char* kUsage =
     "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name "
     "N]\n"
     "                    [--rates P,X,V] [--stamp-offsets P,X,V] [--continuous-command] [--start-offset S]\n"
-    "                    [--effects-from-cycle K]\n"
+    "                    [--effects-from-cycle K] [--oil-temperature START[,END]] [--oil-law ALPHA,BETA]\n"
     "  Press cycles of the simulated die cushion on /die_cushion/{pressure,position,valve};\n"
     "  --press CLASS          the kind of press: slow_hydraulic (the paper's, default; 2.62 s cycles),\n"
     "                         fast_mechanical (crank, 0.5 m/s, 4 ms impact), small_stiff (0.02 m^2, 1 l),\n"
@@ -44,6 +44,15 @@ const char* kUsage =
     "their\n"
     "                         parameters are 0): a leak or air that starts while the press is recorded;\n"
     "                         --write-truth then adds effects_from_cycle and effects_from_time [s].\n"
+    "  --oil-temperature START[,END] the oil's temperature [degC] at the recording's start and its end "
+    "(linear\n"
+    "                         warming over the press cycles; default END = START), recorded on\n"
+    "                         /die_cushion/oil_temperature (sensor_msgs/Temperature, 2 Hz, 0.05 K noise); "
+    "the\n"
+    "                         plant follows it (effect oil_temperature: its true parameters hold at 40 "
+    "degC);\n"
+    "  --oil-law ALPHA,BETA    the plant oil's bulk-modulus and leakage temperature coefficients [1/K]\n"
+    "                         (default -0.004,0.045); --write-truth adds them and the temperatures.\n"
     "  Sensor configurations a press may have:\n"
     "    --no-velocity         JointState with position only (a linear encoder)\n"
     "    --no-spool            spool position not measured (NaN)\n"
@@ -65,6 +74,7 @@ const char* kUsage =
 // The three topics' names in the order of InputStream.
 const char* const kTopics[kInputStreamCount] = {"/die_cushion/pressure", "/die_cushion/position",
                                                 "/die_cushion/valve"};
+const char* const kOilTemperatureTopic = "/die_cushion/oil_temperature";
 
 /// How the press's sensors appear in the bag (beyond what the simulator's SensorConfig models).
 struct Recording {
@@ -98,12 +108,22 @@ class BagRecorder {
         break;
     }
   }
+  /// The oil temperature messages a simulator sent since the last call.
+  void writeOilTemperature(DieCushionSimulator& simulator, double offset) {
+    oil_.clear();
+    simulator.takeOilTemperature(&oil_);
+    for (const StreamSample& sample : oil_) {
+      const ros::Time stamp(epoch_ + offset + sample.stamp);
+      bag_.write(kOilTemperatureTopic, stamp, toTemperatureMsg(sample, stamp));
+    }
+  }
 
  private:
   BagStreamWriter bag_;  // rosbag::Bag::write costs four system calls a message (bag_stream_writer.h)
   double epoch_;
   Recording recording_;
   SimulatedJoints joints_;
+  std::vector<StreamSample> oil_;
 };
 
 // "a,b,c" -> three numbers.
@@ -134,7 +154,23 @@ struct Options {
   double variation = 0.0;
   std::string config_out, truth_out;
   Recording recording;
+  double oil_start = std::numeric_limits<double>::quiet_NaN();  // [degC]; NaN: no temperature
+  double oil_end = std::numeric_limits<double>::quiet_NaN();
 };
+
+// "a" or "a,b" -> one or two finite numbers.
+std::vector<double> numbers(const std::string& text, std::size_t most) {
+  const auto items = splitList(text);
+  if (items.empty() || items.size() > most)
+    throw std::invalid_argument("'" + text + "': wrong count of numbers");
+  std::vector<double> out;
+  for (const auto& item : items) {
+    const auto value = numberIn(item, -1e300, 1e300);
+    if (!value) throw std::invalid_argument("'" + item + "' is not a finite number");
+    out.push_back(*value);
+  }
+  return out;
+}
 
 void addPressOptions(ArgumentParser& arguments, Options& o) {
   arguments.number("--cycles", 0.0, 1e6, &o.cycles)
@@ -180,6 +216,28 @@ void addPressOptions(ArgumentParser& arguments, Options& o) {
                 o.step_test = *step;
               })
       .number("--effects-from-cycle", 0.0, 1e6, &o.effects_from_cycle)
+      .option("--oil-temperature",
+              [&o](const std::string& v) {
+                const auto t = numbers(v, 2);
+                for (double x : t) {
+                  if (!(x >= -30.0 && x <= 150.0))
+                    throw std::invalid_argument(
+                        "--oil-temperature needs START[,END] in [-30, 150] degC, got '" + v + "'");
+                }
+                o.oil_start = t[0];
+                o.oil_end = t.size() > 1 ? t[1] : t[0];
+              })
+      .option("--oil-law",
+              [&o](const std::string& v) {
+                const auto c = numbers(v, 2);
+                if (c.size() != 2 || !(c[0] >= -0.02 && c[0] <= 0.0) || !(c[1] >= 0.0 && c[1] <= 0.1))
+                  throw std::invalid_argument(
+                      "--oil-law needs ALPHA,BETA with ALPHA in [-0.02, 0] and BETA in "
+                      "[0, 0.1] 1/K, got '" +
+                      v + "'");
+                o.plant.oil.bulk_modulus_coefficient = c[0];
+                o.plant.oil.leakage_coefficient = c[1];
+              })
       .number("--epoch", 0.0, 4e9, &o.epoch)
       .positional("output bag", 1, [&o](const std::string& v) { o.out = v; });
 }
@@ -227,6 +285,14 @@ SimulatorConfig buildPlant(const Options& o) {
       pressClassPlant(o.press, static_cast<std::uint64_t>(o.variation), o.plant.effects, o.plant.seed);
   built.sensors = o.plant.sensors;
   built.custom_effects = o.plant.custom_effects;
+  built.oil = o.plant.oil;
+  if (std::isfinite(o.oil_start)) {
+    // The plant follows its oil's temperature: the effect, its coefficient the law's unless --set.
+    if (std::find(built.effects.begin(), built.effects.end(), "oil_temperature") == built.effects.end())
+      built.effects.push_back("oil_temperature");
+    built.parameters.emplace("bulk_modulus_temperature_coefficient", built.oil.bulk_modulus_coefficient);
+    built.oil_temperature.start = o.oil_start;
+  }
   for (const auto& [name, value] : o.plant.parameters) built.parameters[name] = value;
   return built;
 }
@@ -255,6 +321,12 @@ void writeTruth(const Options& o, const SimulatorConfig& plant, const std::strin
   file << "valve_natural_frequency: " << plant.valve.natural_frequency
        << "\nvalve_damping: " << plant.valve.damping << "\nvalve_gain: " << plant.valve.gain
        << "\nvalve_dead_time: " << plant.valve.dead_time << "\n";
+  if (std::isfinite(o.oil_start)) {
+    file << "# The parameters above hold at reference_temperature [degC]; the coefficients are per kelvin.\n"
+         << "reference_temperature: " << plant.oil.reference_temperature
+         << "\nleakage_temperature_coefficient: " << plant.oil.leakage_coefficient
+         << "\noil_temperature_start: " << o.oil_start << "\noil_temperature_end: " << o.oil_end << "\n";
+  }
   if (o.effects_from_cycle > 0.0) {
     file << "effects_from_cycle: " << o.effects_from_cycle
          << "\neffects_from_time: " << o.effects_from_cycle * probe.program().cycleDuration() - o.start_offset
@@ -264,9 +336,16 @@ void writeTruth(const Options& o, const SimulatorConfig& plant, const std::strin
 }
 
 /// The press cycles; returns where an appended test starts [s of the recording].
-double recordPressCycles(const Options& o, const SimulatorConfig& plant, BagRecorder& recorder) {
+double recordPressCycles(const Options& o, SimulatorConfig plant, BagRecorder& recorder) {
+  const double duration =
+      o.hours > 0.0 ? o.hours * 3600.0 : o.cycles * PressCycleProgram(plant.cycle).cycleDuration();
+  if (plant.oil_temperature.recorded() && duration > 0.0) {
+    // From START at the recording's start to END at its end; the lead-in before a mid-stroke start is as warm
+    // as the start.
+    plant.oil_temperature.warming_rate = (o.oil_end - o.oil_start) / duration;
+    plant.oil_temperature.start = o.oil_start - plant.oil_temperature.warming_rate * o.start_offset;
+  }
   DieCushionSimulator press(plant);
-  const double duration = o.hours > 0.0 ? o.hours * 3600.0 : o.cycles * press.program().cycleDuration();
   std::vector<SimulatedMeasurement> messages;
   // The effects' own parameters (after the base model's three) held at 0 until their cycle.
   const ParameterVector effect_truth = press.trueParameters();
@@ -275,6 +354,7 @@ double recordPressCycles(const Options& o, const SimulatorConfig& plant, BagReco
   bool effects_acting = !(effects_from > 0.0);
   const auto setEffects = [&](bool acting) {
     for (std::size_t i = HydraulicModel::kDeadVolume + 1; i < infos.size(); ++i) {
+      if (static_cast<int>(i) == press.model().oilStateParameter()) continue;  // the oil is there throughout
       press.setTrueParameter(infos[i].name, acting ? effect_truth(static_cast<Eigen::Index>(i)) : 0.0);
     }
   };
@@ -286,8 +366,13 @@ double recordPressCycles(const Options& o, const SimulatorConfig& plant, BagReco
     }
     messages.clear();
     press.step(&messages);
-    if (press.state().t < o.start_offset) continue;  // not recorded yet: the recording starts mid-stroke
+    if (press.state().t < o.start_offset) {  // not recorded yet: the recording starts mid-stroke
+      std::vector<StreamSample> unrecorded;
+      press.takeOilTemperature(&unrecorded);
+      continue;
+    }
     for (const auto& m : messages) recorder.write(m, -o.start_offset);
+    recorder.writeOilTemperature(press, -o.start_offset);
   }
   return press.state().t - o.start_offset + 2.0;
 }
@@ -312,9 +397,19 @@ struct SweepWatch {
 
 /// The same cushion standing at rest from `offset` on, swept as ValveSweep sweeps it live; returns where
 /// the next appended test starts.
-double recordSweep(const Options& o, const SimulatorConfig& plant, double offset, BagRecorder& recorder) {
+// The plant at rest for an appended test: its oil as warm as at the recording's end, held.
+SimulatorConfig atRest(const Options& o, const SimulatorConfig& plant) {
   SimulatorConfig at_rest = plant;
   at_rest.cycle.rest_time = 1e9;
+  if (at_rest.oil_temperature.recorded()) {
+    at_rest.oil_temperature.start = o.oil_end;
+    at_rest.oil_temperature.warming_rate = 0.0;
+  }
+  return at_rest;
+}
+
+double recordSweep(const Options& o, const SimulatorConfig& plant, double offset, BagRecorder& recorder) {
+  const SimulatorConfig at_rest = atRest(o, plant);
   DieCushionSimulator cushion(at_rest);
   ValveSweep valve_sweep{SweepLimits()};
   SweepWatch watch;
@@ -343,6 +438,7 @@ double recordSweep(const Options& o, const SimulatorConfig& plant, double offset
       recorder.write(m, offset);
       watch.see(m, valve_sweep);
     }
+    recorder.writeOilTemperature(cushion, offset);
     if (started && !valve_sweep.running()) break;
   }
   if (valve_sweep.state() != ValveSweep::State::kFinished) {
@@ -354,6 +450,7 @@ double recordSweep(const Options& o, const SimulatorConfig& plant, double offset
     cushion.setValveCommandOverride(valve_sweep.command(cushion.state().t).value_or(request.offset));
     cushion.step(&messages);
     for (const auto& m : messages) recorder.write(m, offset);
+    recorder.writeOilTemperature(cushion, offset);
   }
   return offset + cushion.state().t + 2.0;
 }
@@ -361,8 +458,7 @@ double recordSweep(const Options& o, const SimulatorConfig& plant, double offset
 // The cushion at rest under its controller, then the command held at its last value for 0.3 s (as
 // ~start_step_test holds the offset), stepped by step_test for 1.5 s, and back to the controller.
 void recordStepTest(const Options& o, const SimulatorConfig& plant, double offset, BagRecorder& recorder) {
-  SimulatorConfig at_rest = plant;
-  at_rest.cycle.rest_time = 1e9;
+  const SimulatorConfig at_rest = atRest(o, plant);
   DieCushionSimulator cushion(at_rest);
   std::vector<SimulatedMeasurement> messages;
   const auto run = [&](double until) {
@@ -370,6 +466,7 @@ void recordStepTest(const Options& o, const SimulatorConfig& plant, double offse
       messages.clear();
       cushion.step(&messages);
       for (const auto& m : messages) recorder.write(m, offset);
+      recorder.writeOilTemperature(cushion, offset);
     }
   };
   run(0.7);

@@ -46,6 +46,8 @@ const char* warningCodeName(WarningCode code) {
       return "not_finite";
     case WarningCode::kCyclesThinned:
       return "cycles_thinned";
+    case WarningCode::kOilTemperature:
+      return "oil_temperature";
   }
   return "unknown";
 }

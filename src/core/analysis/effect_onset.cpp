@@ -79,7 +79,7 @@ double freeRunErrorFrom(const std::vector<GridSample>& grid, const StrokeSegment
   const HydraulicEstimate fit = fitOnCycles(after, segments, config, INT_MIN, INT_MAX);
   if (fit.updates == 0 || !fit.values().allFinite()) return std::numeric_limits<double>::infinity();
   const HydraulicModel model =
-      HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+      HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
   const double error =
       assessModel(after, segments, model, fit.values(), config.min_pressure).simulation_error_rms;
   return std::isfinite(error) && error > 0.0 ? error : std::numeric_limits<double>::infinity();
@@ -94,7 +94,7 @@ namespace {
 std::optional<EffectOnset> effectStep(const std::string& name, const IdentificationConfig& with,
                                       const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                       int max_groups, int jobs, int* tests) {
-  const ParameterInfo info = makeLibraryEffect(name)->parameterFor(with.geometry);
+  const ParameterInfo info = makeLibraryEffect(name, with.oil)->parameterFor(with.geometry);
   const CycleGroupFits groups(grid, strokes, with, max_groups, jobs);
   if (!groups.valid()) return std::nullopt;
   std::vector<double> series;
@@ -173,6 +173,8 @@ std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
   int tests = 0;
   std::vector<std::pair<EffectOnset, IdentificationConfig>> steps;  // each effect's step, its model
   for (const std::string& name : libraryEffectNames()) {
+    // The oil's temperature changes gradually and is measured: no onset to look for (a drift, not a step).
+    if (makeLibraryEffect(name, config.oil)->needsOilTemperature()) continue;
     IdentificationConfig with = config;
     if (std::find(with.effects.begin(), with.effects.end(), name) == with.effects.end())
       with.effects.push_back(name);

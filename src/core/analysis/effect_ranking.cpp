@@ -69,11 +69,11 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   IdentificationConfig extended = model;
   std::string physics, implausible;
   std::vector<ParameterInfo> infos;
+  std::vector<std::unique_ptr<Effect>> effects;
   for (const auto& name : names) {
     extended.effects.push_back(name);
-    const auto effect = makeLibraryEffect(name);
-    physics += (physics.empty() ? "" : "; ") + effect->explanation();
-    infos.push_back(effect->parameterFor(model.geometry));
+    effects.push_back(makeLibraryEffect(name, model.oil));
+    infos.push_back(effects.back()->parameterFor(model.geometry));
   }
   // The effects' parameters fitted on all the cycles, in physical units: combined from the two held-out
   // folds' fits (a third of the ranking's work saved), which run side by side unless one job is asked for,
@@ -86,15 +86,22 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   } else {
     all = fitOnCycles(grid, strokes, extended, INT_MIN, INT_MAX);
   }
-  for (const ParameterInfo& info : infos) {
+  for (std::size_t e = 0; e < infos.size(); ++e) {
+    const ParameterInfo& info = infos[e];
+    double fitted = std::numeric_limits<double>::quiet_NaN();
     for (const auto& p : all.parameters) {
       if (p.name != info.name) continue;
+      fitted = p.value;
       candidate.parameters.push_back(p);
       if (!(std::isfinite(p.value) && p.value >= info.lower_bound && p.value <= info.upper_bound)) {
         implausible += "; the fit puts " + info.name + " at " + formatted("%.3g", p.value) + " " + info.unit +
                        ", outside its physical range: the data do not show this effect";
       }
     }
+    // The physics with the fitted value where it says more ("... at -0.41 %/K"), where it is plausible.
+    const bool plausible = std::isfinite(fitted) && fitted >= info.lower_bound && fitted <= info.upper_bound;
+    physics += (physics.empty() ? "" : "; ") +
+               (plausible ? effects[e]->explanationFor(fitted) : effects[e]->explanation());
   }
   // A fit outside the physical range says "not this effect" however few cycles there are.
   if (!enough) {
@@ -118,9 +125,13 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
   return judged;
 }
 
-std::vector<std::string> unusedLibraryEffects(const IdentificationConfig& model) {
+// The library effects `model` does not use and the recording can show: the oil's temperature only where
+// one was recorded (without it the effect cannot act, and a recording without the topic is judged as
+// before it existed).
+std::vector<std::string> unusedLibraryEffects(const IdentificationConfig& model, bool oil_temperature) {
   std::vector<std::string> unused;
   for (const auto& name : libraryEffectNames()) {
+    if (!oil_temperature && makeLibraryEffect(name, model.oil)->needsOilTemperature()) continue;
     if (std::find(model.effects.begin(), model.effects.end(), name) == model.effects.end()) {
       unused.push_back(name);
     }
@@ -132,7 +143,7 @@ std::vector<std::string> unusedLibraryEffects(const IdentificationConfig& model)
 std::vector<Judged> judgeLibraryEffects(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                         const IdentificationConfig& model, const HeldOutErrors& base,
                                         bool enough, const EffectRankingOptions& options) {
-  const std::vector<std::string> names = unusedLibraryEffects(model);
+  const std::vector<std::string> names = unusedLibraryEffects(model, oilTemperatureMeasured(grid));
   std::vector<Judged> round(names.size());
   parallelFor(names.size(), options.jobs, [&](std::size_t i) {
     round[i] = judgeExtension(grid, strokes, model, {names[i]}, base, enough, options);

@@ -68,6 +68,7 @@ class BalanceScreen {
         signals.v = s.v;
         signals.u = s.u;
         signals.y = s.y;
+        signals.T = s.T;
         signals.dp = i > 0 ? (s.p - grid[s0 + i - 1].p) / dt_ : 0.0;
         signals.V = model.chamberVolume(s.x, theta(HydraulicModel::kDeadVolume));
         model.regressionColumns(signals, theta, a.data(), g.data());
@@ -272,7 +273,8 @@ std::vector<Screened> screenAll(const BalanceScreen& screen, double supply_press
 // Free-run error [Pa] of `config` fitted on cycles [first, last] and run free on them.
 double freeRunRms(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                   const IdentificationConfig& config, int first, int last) {
-  const HydraulicModel model = HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+  const HydraulicModel model =
+      HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
   const HydraulicEstimate e = fitOnCycles(grid, strokes, config, first, last);
   const auto [begin, end] = strokes.range(first, last);
   const SquaredErrors errors = freeRunSquaredErrors(grid, begin, end, model, e.values(), config.min_pressure);
@@ -353,7 +355,8 @@ std::optional<HeldOutErrors> heldOutErrorsNested(const std::vector<GridSample>& 
                                                  const FormulaSearchOptions& options) {
   const int split = ranking.split(strokes.cycles);
   std::array<IdentificationConfig, 2> folds = {model, model};
-  const HydraulicModel hydraulic = HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects);
+  const HydraulicModel hydraulic =
+      HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects, model.oil);
   for (int which = 0; which < 2; ++which) {
     FormulaTerm chosen = term;
     if (term.hasBreakpoint()) {
@@ -440,7 +443,8 @@ void orderProposals(std::vector<std::pair<FormulaProposal, int>>& proposals, dou
 std::vector<FormulaProposal> searchOneTerm(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
                                            const IdentificationConfig& model, const HeldOutErrors& base,
                                            const EffectRankingOptions& ranking, const FormulaSearchOptions& options) {
-  const HydraulicModel hydraulic = HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects);
+  const HydraulicModel hydraulic =
+      HydraulicModel::fromNames(model.geometry, model.effects, model.custom_effects, model.oil);
   const std::optional<BalanceScreen> screen =
       screenOnCycles(grid, strokes, model, hydraulic, options, INT_MIN, INT_MAX);
   if (!screen) return {};

@@ -61,6 +61,7 @@ double FreeRunPressure::rate(const Span& span, double w, double p, const Paramet
   s.v = span.v.at(w);
   s.y = span.y.at(w);
   s.u = span.a->u + w * (span.b->u - span.a->u);
+  s.T = span.a->T + w * (span.b->T - span.a->T);
   s.dp = 0.0;
   s.V = model_.chamberVolume(s.x, theta(HydraulicModel::kDeadVolume));
   return model_.pressureRate(s, theta);

@@ -39,15 +39,16 @@ std::unique_ptr<HydraulicIdentifier> fitIdentifierOnStretches(const std::vector<
     return identifier;
   };
   auto identifier = pass(nullptr);
-  bool reshapes_valve = false;
+  bool relinearised = false;
   for (int i = 0; i < identifier->model().effectCount(); ++i) {
-    reshapes_valve |= identifier->model().effect(i).coupling() == Effect::Coupling::kValveShape;
+    relinearised |= identifier->model().effect(i).coupling() != Effect::Coupling::kAdditive;
   }
-  // Valve-shape effects are linearised at the running estimate; without forgetting, rows linearised at an
-  // early, wrong overlap or tank pressure would weigh as much as the rest for good. A second pass with
-  // every row linearised at the first pass's estimate removes that (issue 16).
+  // Valve-shape and oil-state effects are linearised at the running estimate; without forgetting, rows
+  // linearised at an early, wrong overlap, tank pressure or temperature coefficient would weigh as much as
+  // the rest for good. A second pass with every row linearised at the first pass's estimate removes that
+  // (issue 16).
   const ParameterVector physical = identifier->physicalParameters();
-  if (reshapes_valve && identifier->updates() > 0 && physical.allFinite()) identifier = pass(&physical);
+  if (relinearised && identifier->updates() > 0 && physical.allFinite()) identifier = pass(&physical);
   return identifier;
 }
 
@@ -119,7 +120,7 @@ HeldOutErrors heldOutErrorsOfFolds(const std::vector<GridSample>& grid, const St
   const auto fold = [&](int which) {
     const IdentificationConfig& config = *fold_configs[which];
     const HydraulicModel model =
-        HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+        HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
     const int fit_first = which == 0 ? 0 : split, fit_last = which == 0 ? split - 1 : strokes.cycles - 1;
     const int test_first = which == 0 ? split : 0, test_last = which == 0 ? strokes.cycles - 1 : split - 1;
     fits[which] = fitIdentifierOnStretches(grid, config, {strokes.range(fit_first, fit_last)});
@@ -255,7 +256,7 @@ std::vector<float> heldOutPredictions(const std::vector<GridSample>& grid, const
   if (!errors.folds) return predictions;
   for (const HeldOutErrors::Fold& f : *errors.folds) {
     const HydraulicModel model =
-        HydraulicModel::fromNames(f.config.geometry, f.config.effects, f.config.custom_effects);
+        HydraulicModel::fromNames(f.config.geometry, f.config.effects, f.config.custom_effects, f.config.oil);
     for (int c = f.test_first; c <= f.test_last; ++c) {
       const auto [begin, end] = strokes.range(c, c);
       freeRunSquaredErrors(grid, begin, end, model, f.theta, f.config.min_pressure, nullptr, &predictions);

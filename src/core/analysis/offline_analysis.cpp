@@ -1,11 +1,11 @@
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
 
+#include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
 #include <climits>
 #include <cmath>
 #include <cstdio>
 #include <limits>
-
-#include <boost/math/distributions/chi_squared.hpp>
 
 #include "die_cushion_ident/core/analysis/cycle_group_fits.h"
 #include "die_cushion_ident/core/analysis/effect_onset.h"
@@ -82,6 +82,10 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits
 }
 
 namespace {
+// [K] an oil temperature range within a recording worth naming as the cause of a drift: the bulk modulus
+// moves by about 2 % over it, the leakage by 20 %.
+constexpr double kNotableWarming = 5.0;
+
 // Samples kept before each kept cycle's impact where the grid is thinned: four times the filters' reach
 // and at least half a second, so that every fit's filters and free run have settled at the impact; at most a
 // tenth of the bound (a 10 us grid's half second would not leave room for cycles).
@@ -160,6 +164,15 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
   }
   warnings->push_back({WarningCode::kValveModel, text});
   return true;
+}
+
+void OfflineAnalysis::pushOilTemperature(const StreamSample& sample) {
+  ++messages_;
+  ++oil_received_;
+  // Every accepted message, for the grid's temperature once all are in (settleOilTemperature).
+  if (pipeline_.pushOilTemperature(sample) == UniformResampler::PushResult::kAccepted) {
+    oil_messages_.emplace_back(sample.stamp, sample.first);
+  }
 }
 
 void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
@@ -275,6 +288,31 @@ void warnRejectedMessages(const IdentificationConfig& config, OfflineResult& r) 
   }
 }
 
+// The oil temperature messages rejected, by reason.
+void warnRejectedOilTemperature(const IdentificationConfig& config, OfflineResult& r) {
+  if (!r.oil_temperature) return;
+  const OilTemperatureRecord& oil = *r.oil_temperature;
+  const StreamHealth& h = oil.health;
+  std::string reasons;
+  const auto add = [&](std::uint64_t count, const std::string& what) {
+    if (count > 0) reasons += (reasons.empty() ? "" : ", ") + formatted("%.0f ", count) + what;
+  };
+  add(h.non_finite, "not finite (NaN)");
+  add(h.implausible - oil.jumps,
+      formatted("outside the plausible range [%.4g, %.4g] degC", config.min_plausible_oil_temperature,
+                config.max_plausible_oil_temperature));
+  add(oil.jumps,
+      formatted("jumping faster than %.3g K/s from the last accepted value (unconfirmed by the next "
+                "messages)",
+                config.max_plausible_oil_temperature_rate));
+  add(h.wild_stamps, formatted("stamped more than %.3g s off the other topics (the last %+.4g s)",
+                               config.oil_temperature_max_age, h.last_wild_offset));
+  add(h.duplicates + h.out_of_order, "repeated or running back in time");
+  if (reasons.empty()) return;
+  r.warnings.push_back({WarningCode::kMessagesRejected,
+                        "oil temperature messages rejected (the analysis goes on without them): " + reasons});
+}
+
 // Whether the hydraulics can be identified at all: all three topics, overlapping in time.
 void decideHydraulics(const GridCoverage& coverage, OfflineResult& r) {
   r.hydraulics = r.health[0].accepted > 0 && r.health[1].accepted > 0 && r.health[2].accepted > 0;
@@ -292,12 +330,71 @@ void decideHydraulics(const GridCoverage& coverage, OfflineResult& r) {
 
 }  // namespace
 
+void OfflineAnalysis::settleOilTemperature(OfflineResult* result) {
+  OfflineResult& r = *result;
+  const bool needed =
+      std::find(config_.effects.begin(), config_.effects.end(), "oil_temperature") != config_.effects.end();
+  if (oil_received_ == 0) {
+    if (needed) {
+      r.warnings.push_back(
+          {WarningCode::kOilTemperature,
+           "the model has the effect oil_temperature, but the recording holds no oil temperature "
+           "(topic oil_temperature): the effect cannot act, and its coefficient stays at its "
+           "start; record the oil's temperature, or leave the effect out"});
+    }
+    return;
+  }
+  const OilTemperatureInput& input = pipeline_.oilTemperature();
+  OilTemperatureRecord oil;
+  oil.health = input.health();
+  oil.jumps = input.jumps();
+  oil.mean = input.mean();
+  oil.lowest = input.lowest();
+  oil.highest = input.highest();
+  oil.stamp_offset = input.meanStampOffset();
+  oil.reference = config_.oil.reference_temperature;
+  const double max_age = config_.oil_temperature_max_age;
+  grid_.setOilTemperature([&](double t) { return OilTemperatureInput::heldAt(oil_messages_, t, max_age); });
+  double sum = 0.0;
+  std::uint64_t complete = 0, with = 0;
+  for (const GridSample& g : grid_.grid()) {
+    if (!g.complete) continue;
+    ++complete;
+    if (!std::isfinite(g.T)) continue;
+    ++with;
+    sum += g.T;
+  }
+  oil.grid_share = complete > 0 ? static_cast<double>(with) / static_cast<double>(complete) : 0.0;
+  if (with > 0) {
+    oil.origin = sum / static_cast<double>(with);
+    config_.oil.temperature_origin = oil.origin;
+  }
+  if (oil.health.accepted == 0) {
+    r.warnings.push_back(
+        {WarningCode::kOilTemperature,
+         formatted("the oil temperature topic gave no usable message (%.0f received, every one "
+                   "rejected: see the warnings on rejected messages): the parameters are not "
+                   "carried to the reference temperature",
+                   oil_received_)});
+  } else if (oil.grid_share < 0.99 && complete > 0) {
+    r.warnings.push_back(
+        {WarningCode::kOilTemperature,
+         formatted(
+             "the oil temperature topic was silent for %.0f %% of the recording (longer than "
+             "oil_temperature_max_age, %.3g s, without a message): there the oil's temperature is taken as "
+             "its mean over the rest (%.1f degC)",
+             100.0 * (1.0 - oil.grid_share), max_age, std::isfinite(oil.origin) ? oil.origin : oil.mean)});
+  }
+  r.oil_temperature = std::move(oil);
+}
+
 OfflineResult OfflineAnalysis::identify(const std::function<void(const std::string&)>& progress) {
   const auto tell = [&](const std::string& what) {
     if (progress) progress(what);
   };
   endInput();
   OfflineResult r;
+  settleOilTemperature(&r);
   r.topic_delays = config_.appliedTopicDelays();
   r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
   r.derived_velocity_samples = pipeline_.derivedVelocitySamples();
@@ -309,9 +406,10 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
   r.restarts = pipeline_.resampler().restarts();
   r.estimates = std::move(estimates_);
   const HydraulicModel model =
-      HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects);
+      HydraulicModel::fromNames(config_.geometry, config_.effects, config_.custom_effects, config_.oil);
   r.effects = model.effectNames();
   warnRejectedMessages(config_, r);
+  warnRejectedOilTemperature(config_, r);
   decideHydraulics(coverage_, r);
   if (grid_.stride() > 1)
     r.warnings.push_back(
@@ -323,6 +421,10 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
   } else if (r.hydraulics) {
     refineAndCompare(model, &r, tell);
+  }
+  if (r.oil_temperature && r.model.updates > 0 && std::isfinite(r.oil_temperature->origin)) {
+    r.oil_temperature->at_reference = parametersAtTemperature(
+        model, r.model, config_.oil, r.oil_temperature->origin, config_.oil.reference_temperature);
   }
   return r;
 }
@@ -368,8 +470,18 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
   }
   tell("fitting each group of cycles alone (does a parameter change over the recording?)");
   const CycleGroupFits cycle_groups(grid_.grid(), r.strokes, config_, 10, jobs_);
+  // The oil warmed while it was recorded, and the model does not follow it: the likeliest reading of a drift.
+  std::string warming;
+  if (r.oil_temperature && model.oilStateParameter() < 0 &&
+      r.oil_temperature->highest - r.oil_temperature->lowest >= kNotableWarming) {
+    warming = formatted(
+        "; the oil's temperature went from %.1f to %.1f degC while it was recorded: try the effect "
+        "oil_temperature",
+        r.oil_temperature->lowest, r.oil_temperature->highest);
+  }
   for (const auto& spread : parametersThatVaryOverTheRecording(cycle_groups, r.model)) {
-    r.warnings.push_back({WarningCode::kChangingParameter, spread});
+    const bool drift = spread.find(" drifts ") != std::string::npos;
+    r.warnings.push_back({WarningCode::kChangingParameter, spread + (drift ? warming : "")});
   }
   tell("looking for an effect that starts within the recording");
   r.onset = findEffectOnset(grid_.grid(), r.strokes, config_, kVariationSignificance, jobs_, 60,

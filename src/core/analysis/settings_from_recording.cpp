@@ -597,8 +597,12 @@ struct StudyOutcome {
 class ResolutionStudy {
  public:
   ResolutionStudy(const Messages& messages, std::vector<double> periods, int jobs, SettingsChoice& choice)
-      : messages_(messages), periods_(std::move(periods)), jobs_(jobs), choice_(choice),
-        model_(HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects)),
+      : messages_(messages),
+        periods_(std::move(periods)),
+        jobs_(jobs),
+        choice_(choice),
+        model_(HydraulicModel::fromNames(choice.config.geometry, choice.config.effects,
+                                         choice.config.custom_effects, choice.config.oil)),
         levels_(periods_.size()) {}
 
   StudyOutcome run(double allowed_change, double noise, double finest_interval, double configured_period);
@@ -903,8 +907,8 @@ TopicDelayEstimate SettingsFromRecording::clockOffsets() const {
   const double finest = studyPeriods(finestInterval(choice.survey)).back();
   searchClockOffsets(messages_, finest, valveModelConfigured(configured_), jobs_, choice);
   // The position's offset refined by the free run as the survey refines it, the model as configured.
-  const HydraulicModel model =
-      HydraulicModel::fromNames(choice.config.geometry, choice.config.effects, choice.config.custom_effects);
+  const HydraulicModel model = HydraulicModel::fromNames(choice.config.geometry, choice.config.effects,
+                                                         choice.config.custom_effects, choice.config.oil);
   identifyAndRefineOffset(messages_, finest, model, jobs_, choice);
   return *choice.delays;
 }

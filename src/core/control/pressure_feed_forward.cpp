@@ -78,6 +78,7 @@ double PressureFeedForward::opening(const SetpointAhead& setpoint, double x, dou
   HydraulicSignals s;
   s.x = std::clamp(x, 0.0, model_.geometry().stroke_length);  // a preview beyond the stroke is not a chamber
   s.v = v;
+  s.T = oil_temperature_;
   s.V = model_.chamberVolume(s.x, physical_(HydraulicModel::kDeadVolume));
   // The compliance the rate meets, at the set-point's newest value: the capacitance plus what every outflow
   // term in dp/dt adds (a custom p*dp term is a compressibility), as the secant of those terms up to the

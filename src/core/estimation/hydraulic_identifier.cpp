@@ -22,7 +22,7 @@ IdentificationConfig checked(const IdentificationConfig& config) {
 
 HydraulicIdentifier::HydraulicIdentifier(const IdentificationConfig& config)
     : config_(checked(config)),
-      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)) {
+      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil)) {
   const int n = model_.parameterCount();
   ParameterVector initial = model_.nominalParameters();
   for (const auto& [name, value] : config_.initial_parameters) {
@@ -152,6 +152,7 @@ HydraulicSignals HydraulicIdentifier::signalsAt(const RegressionRow& row) const 
   s.x = row.x;
   s.u = row.u;
   s.y = row.y;
+  s.T = row.T;
   s.V = model_.chamberVolume(row.x, linearisation_point_(HydraulicModel::kDeadVolume));
   return s;
 }

@@ -98,6 +98,21 @@ const NumericKey kNumericKeys[] = {
     {"plausible_stroke_margin", [](IdentificationConfig& c) { return &c.plausible_stroke_margin; }},
     {"max_plausible_velocity", [](IdentificationConfig& c) { return &c.max_plausible_velocity; }},
     {"max_plausible_voltage", [](IdentificationConfig& c) { return &c.max_plausible_voltage; }},
+    {"reference_temperature", [](IdentificationConfig& c) { return &c.oil.reference_temperature; }},
+    {"bulk_modulus_temperature_coefficient",
+     [](IdentificationConfig& c) { return &c.oil.bulk_modulus_coefficient; }},
+    {"bulk_modulus_temperature_coefficient_std",
+     [](IdentificationConfig& c) { return &c.oil.bulk_modulus_coefficient_std; }},
+    {"leakage_temperature_coefficient", [](IdentificationConfig& c) { return &c.oil.leakage_coefficient; }},
+    {"leakage_temperature_coefficient_std",
+     [](IdentificationConfig& c) { return &c.oil.leakage_coefficient_std; }},
+    {"min_plausible_oil_temperature",
+     [](IdentificationConfig& c) { return &c.min_plausible_oil_temperature; }},
+    {"max_plausible_oil_temperature",
+     [](IdentificationConfig& c) { return &c.max_plausible_oil_temperature; }},
+    {"max_plausible_oil_temperature_rate",
+     [](IdentificationConfig& c) { return &c.max_plausible_oil_temperature_rate; }},
+    {"oil_temperature_max_age", [](IdentificationConfig& c) { return &c.oil_temperature_max_age; }},
 };
 
 class Checker {
@@ -232,13 +247,32 @@ void checkPlausibleRanges(const IdentificationConfig& config, Checker& c) {
   c.range("plausible_stroke_margin", config.plausible_stroke_margin, 0.0, 10.0, "");
   c.range("max_plausible_velocity", config.max_plausible_velocity, 0.0, 1000.0, "m/s", true);
   c.range("max_plausible_voltage", config.max_plausible_voltage, 0.0, 1e4, "V", true);
+  c.range("min_plausible_oil_temperature", config.min_plausible_oil_temperature, -100.0, 300.0, "degC");
+  c.range("max_plausible_oil_temperature", config.max_plausible_oil_temperature,
+          std::isfinite(config.min_plausible_oil_temperature) ? config.min_plausible_oil_temperature : -100.0,
+          300.0, "degC", true);
+  c.range("max_plausible_oil_temperature_rate", config.max_plausible_oil_temperature_rate, 0.0, 100.0, "K/s",
+          true);
+  c.range("oil_temperature_max_age", config.oil_temperature_max_age, 0.0, 3600.0, "s", true);
+}
+
+// The oil's temperature law: temperatures in degC, coefficients per kelvin (doc/equations.md).
+void checkOilTemperatureLaw(const IdentificationConfig& config, Checker& c) {
+  const OilTemperatureLaw& oil = config.oil;
+  c.range("reference_temperature", oil.reference_temperature, -30.0, 150.0, "degC");
+  // A bulk modulus that rises as the oil warms, or falls by more than 2 % a kelvin, is no oil's.
+  c.range("bulk_modulus_temperature_coefficient", oil.bulk_modulus_coefficient, -0.02, 0.0, "1/K");
+  c.range("bulk_modulus_temperature_coefficient_std", oil.bulk_modulus_coefficient_std, 0.0, 0.02, "1/K");
+  // Viscosity falls as oil warms: a laminar leakage grows, by at most ~10 %/K for any hydraulic fluid.
+  c.range("leakage_temperature_coefficient", oil.leakage_coefficient, 0.0, 0.1, "1/K");
+  c.range("leakage_temperature_coefficient_std", oil.leakage_coefficient_std, 0.0, 0.1, "1/K");
 }
 
 // Each initial value names a parameter of the model and lies in its range.
 void checkInitialParameters(const IdentificationConfig& config, Checker& c) {
   try {
     const HydraulicModel model =
-        HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+        HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
     for (const auto& [name, value] : config.initial_parameters) {
       bool known = false;
       for (const auto& info : model.parameterInfos()) {
@@ -267,6 +301,7 @@ std::vector<std::string> IdentificationConfig::validate() const {
   const double period = checkGeometryAndGrid(*this, c);
   checkEstimatorAndValve(*this, c, period);
   checkPlausibleRanges(*this, c);
+  checkOilTemperatureLaw(*this, c);
   checkInitialParameters(*this, c);
   return c.errors;
 }

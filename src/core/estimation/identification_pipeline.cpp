@@ -1,6 +1,8 @@
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace die_cushion_ident {
 
@@ -10,7 +12,8 @@ IdentificationPipeline::IdentificationPipeline(const IdentificationConfig& confi
       identifier_(config),
       delays_(config.appliedTopicDelays()),
       sample_period_(config.resampler.sample_period),
-      spool_model_(config.valve, config.resampler.max_gap, config.valve_model_drives_free_run) {
+      spool_model_(config.valve, config.resampler.max_gap, config.valve_model_drives_free_run),
+      oil_temperature_(config.oilTemperatureInputConfig()) {
   grid_.reserve(64);
   resampled_.reserve(64);
 }
@@ -25,11 +28,22 @@ UniformResampler::PushResult IdentificationPipeline::push(InputStream stream, co
     velocity_.flush(&grid_);
     consume();
     identifier_.reset();
+    oil_temperature_.restart();
   }
   for (const GridSample& g : resampled_) velocity_.push(g, &grid_);
   resampled_.clear();
   consume();
   return result;
+}
+
+UniformResampler::PushResult IdentificationPipeline::pushOilTemperature(const StreamSample& sample) {
+  // The other topics' newest stamp is the time base a wild stamp is judged against.
+  double newest = std::numeric_limits<double>::quiet_NaN();
+  for (int s = 0; s < kInputStreamCount; ++s) {
+    const StreamHealth& h = resampler_.health(static_cast<InputStream>(s));
+    if (h.accepted > 0) newest = std::isnan(newest) ? h.last_stamp : std::max(newest, h.last_stamp);
+  }
+  return oil_temperature_.push(sample.stamp, sample.first, newest);
 }
 
 void IdentificationPipeline::flush() {
@@ -47,6 +61,7 @@ void IdentificationPipeline::reset() {
   resampled_.clear();
   grid_.clear();
   spool_model_.reset();
+  oil_temperature_.restart();
 }
 
 void IdentificationPipeline::setValveModel(const ServoValveParameters& valve) {
@@ -60,7 +75,8 @@ void IdentificationPipeline::setValveModel(const ServoValveParameters& valve, bo
 }
 
 void IdentificationPipeline::consume() {
-  for (const GridSample& g : grid_) {
+  for (GridSample& g : grid_) {
+    if (oil_temperature_.any()) g.T = static_cast<float>(oil_temperature_.at(g.t));
     const bool stepped = identifying_ && identifier_.push(g);
     if (on_grid_) on_grid_(g, identifier_);
     if (stepped && on_step_) on_step_(identifier_);

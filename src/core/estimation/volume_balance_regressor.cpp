@@ -7,7 +7,7 @@
 namespace die_cushion_ident {
 
 namespace {
-enum RawChannel { kT, kP, kX, kU, kY, kRawCount };
+enum RawChannel { kT, kP, kX, kU, kY, kOil, kRawCount };
 
 // The valve model can follow the spool sample by sample when the grid has at least five samples per period
 // of the valve's natural frequency (80 Hz on the 2 ms grid: 6; on 5 ms: 2.5, too few).
@@ -75,9 +75,11 @@ void VolumeBalanceRegressor::clear() {
 }
 
 HydraulicSignals VolumeBalanceRegressor::signalsAt(double t, double p, double dp, double x, double v,
-                                                   double u, double y, const ParameterVector& point) const {
+                                                   double u, double y, double T,
+                                                   const ParameterVector& point) const {
   HydraulicSignals s;
   s.t = t;
+  s.T = T;
   s.p = p;
   s.dp = dp;
   s.x = x;
@@ -99,7 +101,7 @@ void VolumeBalanceRegressor::setValveModel(const ServoValveParameters& valve) {
 bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const ParameterVector& point,
                                   RegressionRow* row) {
   if (sample.discontinuity) clear();
-  const double raw[kRawCount] = {sample.t, sample.p, sample.x, sample.u, sample.y};
+  const double raw[kRawCount] = {sample.t, sample.p, sample.x, sample.u, sample.y, sample.T};
   const bool raw_ready = raw_.push(raw);
   const bool ready = form_ == RegressionForm::kDerivative ? pushDerivative(sample, usable, point, row)
                                                           : pushPending(sample, usable, point, row);
@@ -109,6 +111,7 @@ bool VolumeBalanceRegressor::push(const GridSample& sample, bool usable, const P
   row->x = raw_.output(kX);
   row->u = raw_.output(kU);
   row->y = raw_.output(kY);
+  row->T = raw_.output(kOil);
   row->velocity = row->z / model_.geometry().piston_area;
   row->pressure_rate = row->phi[HydraulicModel::kDeadVolume];  // column a = 1: the window-mean dp/dt
   return true;
@@ -202,7 +205,7 @@ void VolumeBalanceRegressor::nodeColumns(Node& node, double drain_weight, bool s
   const bool have_before = before && before->usable;
   const double v = have_before ? (s.x - before->sample.x) / dt_ : 0.0;
   const double dp = have_before ? (s.p - before->sample.p) / dt_ : 0.0;
-  HydraulicSignals signals = signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, point);
+  HydraulicSignals signals = signalsAt(s.t, s.p, dp, s.x, v, s.u, s.y, s.T, point);
   if (drain_weight == 0.0 || drain_weight == 1.0) {
     signals.port_side = drain_weight == 1.0 ? 1.0 : -1.0;
     model_.regressionColumns(signals, point, node.a, node.g);
@@ -310,8 +313,9 @@ bool VolumeBalanceRegressor::pushDerivative(const GridSample& s, bool usable, co
 
   const double dp = derivative_.output(0);
   const double v = derivative_.output(1);
+  // The oil's temperature changes over minutes: the sample's own stands for the row's time.
   const HydraulicSignals f = signalsAt(s.t - delay_ * dt_, aligned_.output(0), dp, aligned_.output(1), v,
-                                       aligned_.output(2), aligned_.output(3), point);
+                                       aligned_.output(2), aligned_.output(3), s.T, point);
   row->z = model_.geometry().piston_area * v;
   double a[kMaxParameters], g[kMaxParameters];
   model_.regressionColumns(f, point, a, g);

@@ -39,11 +39,19 @@ HydraulicModel::HydraulicModel(const CylinderGeometry& geometry, std::vector<std
   for (const auto& e : effects_) {
     if (!seen.insert(e->name()).second) throw std::invalid_argument("effect '" + e->name() + "' given twice");
   }
+  for (std::size_t i = 0; i < effects_.size(); ++i) {
+    if (effects_[i]->coupling() != Effect::Coupling::kOilState) continue;
+    if (oil_state_ >= 0) throw std::invalid_argument("at most one effect may change the oil's state");
+    oil_state_ = static_cast<int>(i);
+  }
   rebuildInfos();
 }
 
 HydraulicModel::HydraulicModel(const HydraulicModel& other)
-    : geometry_(other.geometry_), infos_(other.infos_), rate_dependent_flow_(other.rate_dependent_flow_) {
+    : geometry_(other.geometry_),
+      infos_(other.infos_),
+      rate_dependent_flow_(other.rate_dependent_flow_),
+      oil_state_(other.oil_state_) {
   for (const auto& e : other.effects_) effects_.push_back(e->clone());
 }
 
@@ -54,9 +62,10 @@ HydraulicModel& HydraulicModel::operator=(const HydraulicModel& other) {
 
 HydraulicModel HydraulicModel::fromNames(const CylinderGeometry& geometry,
                                          const std::vector<std::string>& effects,
-                                         const std::vector<std::string>& custom_effects) {
+                                         const std::vector<std::string>& custom_effects,
+                                         const OilTemperatureLaw& oil) {
   std::vector<std::unique_ptr<Effect>> list;
-  for (const auto& name : effects) list.push_back(makeLibraryEffect(name));
+  for (const auto& name : effects) list.push_back(makeLibraryEffect(name, oil));
   for (const auto& spec : custom_effects) list.push_back(parseCustomEffect(spec));
   return HydraulicModel(geometry, std::move(list));
 }
@@ -98,6 +107,11 @@ ValvePort HydraulicModel::basePort(const HydraulicSignals& s) const {
 
 double HydraulicModel::capacitance(const HydraulicSignals& s, const ParameterVector& physical) const {
   double c = chamberVolume(s.x, physical(kDeadVolume)) / physical(kBulkModulus);
+  if (oil_state_ >= 0) {
+    double factor = 1.0, slope = 0.0;
+    effects_[oil_state_]->compressibility(s, physical(kFirstEffect + oil_state_), &factor, &slope);
+    c *= factor;
+  }
   for (int i = 0; i < effectCount(); ++i) {
     if (effects_[i]->coupling() == Effect::Coupling::kAdditive) {
       c += physical(kFirstEffect + i) * effects_[i]->capacitancePerUnit(s);
@@ -117,10 +131,12 @@ double HydraulicModel::valveFlow(const HydraulicSignals& s, const ParameterVecto
 }
 
 double HydraulicModel::extraOutflow(const HydraulicSignals& s, const ParameterVector& physical) const {
+  const double laminar = oil_state_ >= 0 ? effects_[oil_state_]->laminarFlowFactor(s) : 1.0;
   double q = 0.0;
   for (int i = 0; i < effectCount(); ++i) {
     if (effects_[i]->coupling() == Effect::Coupling::kAdditive) {
-      q += physical(kFirstEffect + i) * effects_[i]->outflowPerUnit(s);
+      q += physical(kFirstEffect + i) * effects_[i]->outflowPerUnit(s) *
+           (effects_[i]->laminarFlow() ? laminar : 1.0);
     }
   }
   return q;
@@ -172,7 +188,7 @@ void HydraulicModel::regressionColumns(const HydraulicSignals& s, const Paramete
     if (e.coupling() == Effect::Coupling::kAdditive) {
       a[k] = e.capacitancePerUnit(s);
       g[k] = e.outflowPerUnit(s);
-    } else {
+    } else if (e.coupling() == Effect::Coupling::kValveShape) {
       derivative_of[k] = ValvePort{0.0, 0.0};
       e.shapeValvePort(s.y, linearisation_point(k), port, derivative_of[k]);
     }
@@ -189,6 +205,27 @@ void HydraulicModel::regressionColumns(const HydraulicSignals& s, const Paramete
     q_base -= linearisation_point(k) * dq;
   }
   g[kValveFlowGain] = q_base;
+  if (oil_state_ < 0) return;
+  // The oil's state: C_oil = c_0 V h(T; alpha) with c_0 = 1/K', relinearised at alpha^ like a valve shape,
+  // c_0 V h(alpha) ~ c_0 V [h(alpha^) - alpha^ dh/dalpha] + (c_0 alpha) V dh/dalpha: the base's capacitive
+  // columns take the first factor, the effect's column (coefficient alpha / K') V dh/dalpha, with V at the
+  // linearised dead volume (V_dead/K' alpha = V_dead (alpha/K')); exact at the fixed point. Laminar flows
+  // take their known factor.
+  const Effect& oil = *effects_[oil_state_];
+  const int k_oil = kFirstEffect + oil_state_;
+  double factor = 1.0, slope = 0.0;
+  oil.compressibility(s, linearisation_point(k_oil), &factor, &slope);
+  const double base = factor - linearisation_point(k_oil) * slope;
+  a[kBulkModulus] *= base;
+  a[kDeadVolume] *= base;
+  a[k_oil] = s.V * slope;
+  g[k_oil] = 0.0;
+  const double laminar = oil.laminarFlowFactor(s);
+  for (int i = 0; i < effectCount(); ++i) {
+    if (effects_[i]->coupling() == Effect::Coupling::kAdditive && effects_[i]->laminarFlow()) {
+      g[kFirstEffect + i] *= laminar;
+    }
+  }
 }
 
 ParameterVector HydraulicModel::coefficientsFromPhysical(const ParameterVector& physical) const {
@@ -198,8 +235,17 @@ ParameterVector HydraulicModel::coefficientsFromPhysical(const ParameterVector& 
   c(kDeadVolume) = physical(kDeadVolume) / physical(kBulkModulus);
   for (int i = 0; i < effectCount(); ++i) {
     const int k = kFirstEffect + i;
-    c(k) = effects_[i]->coupling() == Effect::Coupling::kValveShape ? physical(kValveFlowGain) * physical(k)
-                                                                    : physical(k);
+    switch (effects_[i]->coupling()) {
+      case Effect::Coupling::kValveShape:
+        c(k) = physical(kValveFlowGain) * physical(k);
+        break;
+      case Effect::Coupling::kOilState:
+        c(k) = physical(k) / physical(kBulkModulus);
+        break;
+      case Effect::Coupling::kAdditive:
+        c(k) = physical(k);
+        break;
+    }
   }
   return c;
 }
@@ -227,6 +273,12 @@ ParameterVector HydraulicModel::physicalFromCoefficients(const ParameterVector& 
       if (J) {
         (*J)(k, k) = 1.0 / Kv;
         (*J)(k, kValveFlowGain) = -c(k) / (Kv * Kv);
+      }
+    } else if (effects_[i]->coupling() == Effect::Coupling::kOilState) {
+      phys(k) = c(k) / inv_K;  // alpha = (alpha / K') K'
+      if (J) {
+        (*J)(k, k) = 1.0 / inv_K;
+        (*J)(k, kBulkModulus) = -c(k) / (inv_K * inv_K);
       }
     } else {
       phys(k) = c(k);

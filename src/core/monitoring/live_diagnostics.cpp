@@ -60,6 +60,45 @@ HealthReport inputHealth(const InputState& in) {
   return r;
 }
 
+HealthReport oilTemperatureHealth(const OilTemperatureState& state) {
+  HealthReport r;
+  const OilTemperatureInput& in = state.input;
+  const StreamHealth& h = in.health();
+  const std::uint64_t rejected = h.received - h.accepted;
+  const double age = state.now - h.last_stamp;
+  const double latest = in.any() ? in.peek(h.last_stamp) : std::numeric_limits<double>::quiet_NaN();
+  r.add("topic", state.topic);
+  r.add("received", h.received);
+  r.add("rejected", rejected);
+  r.add("last rejection", state.last_rejection.empty() ? "none" : state.last_rejection);
+  r.add("rate [Hz]", formatted("%.2f", h.rate()));
+  r.add("latest [degC]", in.any() ? formatted("%.2f", latest) : std::string("none"));
+  r.add("range [degC]", in.any() ? formatted("%.1f", in.lowest()) + " ... " + formatted("%.1f", in.highest())
+                                 : std::string("none"));
+  r.add("implausible values", h.implausible);
+  r.add("wild stamps", h.wild_stamps);
+  r.add("age of last stamp [s]", in.any() ? formatted("%.1f", age) : std::string("none"));
+  const bool silent = in.any() && age > in.config().max_age;
+  if (h.received == 0) {
+    r.summary(state.model_uses_it ? HealthLevel::kWarn : HealthLevel::kOk,
+              state.model_uses_it
+                  ? "no oil temperature received: the effect oil_temperature cannot act"
+                  : "not received (optional): the parameters hold at the oil's unknown temperature");
+  } else if (h.accepted == 0) {
+    r.summary(HealthLevel::kWarn, "every oil temperature message rejected: " + state.last_rejection);
+  } else if (silent) {
+    r.summary(HealthLevel::kWarn, "silent for " + formatted("%.1f s", age) + " (held " +
+                                      formatted("%.3g s", in.config().max_age) +
+                                      "): the oil's temperature is unknown since");
+  } else if (rejected > 0) {
+    r.summary(HealthLevel::kWarn,
+              std::to_string(rejected) + " messages rejected, last: " + state.last_rejection);
+  } else {
+    r.summary(HealthLevel::kOk, "oil at " + formatted("%.1f degC", latest));
+  }
+  return r;
+}
+
 HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimate& e) {
   HealthReport r;
   r.add("effects", e.effects.empty() ? std::string("none (base model)") : joined(e.effects, ", "));

@@ -106,7 +106,10 @@ void LiveIdentification::setCallbacks(GridCallback on_grid, StepCallback on_step
 }
 
 void LiveIdentification::rebuild() {
-  pipeline_ = std::make_unique<IdentificationPipeline>(config_);
+  auto next = std::make_unique<IdentificationPipeline>(config_);
+  // The slow oil temperature is not lost with the old pipeline (its next message may be seconds away).
+  if (pipeline_) next->adoptOilTemperature(pipeline_->oilTemperature());
+  pipeline_ = std::move(next);
   pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0]);
   pipeline_->setGridCallback(
       [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });

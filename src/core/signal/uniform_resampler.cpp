@@ -344,6 +344,10 @@ bool spoolMeasured(const std::vector<GridSample>& grid) {
   return std::any_of(grid.begin(), grid.end(), [](const GridSample& g) { return std::isfinite(g.y_drain); });
 }
 
+bool oilTemperatureMeasured(const std::vector<GridSample>& grid) {
+  return std::any_of(grid.begin(), grid.end(), [](const GridSample& g) { return std::isfinite(g.T); });
+}
+
 const char* pushResultText(UniformResampler::PushResult result) {
   switch (result) {
     case UniformResampler::PushResult::kNonFinite:

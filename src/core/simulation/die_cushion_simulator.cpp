@@ -34,7 +34,7 @@ std::map<std::string, double> defaultTrueParameters() {
 
 DieCushionSimulator::DieCushionSimulator(const SimulatorConfig& config)
     : config_(config),
-      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects)),
+      model_(HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil)),
       program_(config.cycle),
       controller_(config.controller, config.geometry.piston_area, config.geometry.supply_pressure),
       valve_(config.valve, std::min(config.integration_step, 1e-4)),
@@ -47,6 +47,12 @@ DieCushionSimulator::DieCushionSimulator(const SimulatorConfig& config)
   }
   if (!(config.cycle.drawing_depth < config.geometry.stroke_length)) {
     throw std::invalid_argument("drawing_depth must be below stroke_length");
+  }
+  if (config.oil_temperature.recorded() &&
+      !(std::isfinite(config.oil_temperature.warming_rate) && config.oil_temperature.sensor_rate > 0.0 &&
+        config.oil_temperature.sensor_noise >= 0.0)) {
+    throw std::invalid_argument(
+        "simulator: the oil temperature's warming rate must be finite, its sensor rate > 0");
   }
   const auto defaults = defaultTrueParameters();
   true_parameters_ = model_.nominalParameters();
@@ -96,6 +102,7 @@ double DieCushionSimulator::pressureRate(double t, double p, double y) const {
   s.y = y;
   s.u = state_.u;
   s.V = model_.chamberVolume(point.x, true_parameters_(HydraulicModel::kDeadVolume));
+  s.T = config_.oil_temperature.at(t);
   return model_.pressureRate(s, true_parameters_);
 }
 
@@ -130,6 +137,16 @@ void DieCushionSimulator::step(std::vector<SimulatedMeasurement>* out) {
              : continuous      ? command_signal_(state_.t)
                                : controller_.update(dt, measured_p, now.pressure_setpoint, now.v, added);
   if (out) sampleValve(out);
+  // The oil temperature's sensor, at its own slow rate.
+  const OilTemperatureProfile& oil = config_.oil_temperature;
+  if (out && oil.recorded() && state_.t + 1e-9 >= oil_index_ / oil.sensor_rate) {
+    ++oil_index_;
+    StreamSample m;
+    m.stamp = state_.t;
+    m.first = oil.at(state_.t) + oil.sensor_noise * normal_(rng_);
+    m.second = std::numeric_limits<double>::quiet_NaN();
+    oil_messages_.push_back(m);
+  }
   const int substeps = std::max(1, static_cast<int>(std::ceil(dt / config_.integration_step - 1e-9)));
   const double h = dt / substeps;
   for (int i = 0; i < substeps; ++i) {
@@ -201,22 +218,36 @@ void DieCushionSimulator::sampleSensors(std::vector<SimulatedMeasurement>* out) 
 }
 
 void simulateOnGrid(DieCushionSimulator& simulator, double duration, UniformResampler& resampler,
-                    std::vector<GridSample>* grid, ValveMessageSpool* valve_model) {
+                    std::vector<GridSample>* grid, ValveMessageSpool* valve_model, OilTemperatureInput* oil) {
   std::vector<SimulatedMeasurement> messages;
   simulator.run(duration, &messages);
+  std::vector<StreamSample> temperatures;
+  simulator.takeOilTemperature(&temperatures);
+  const std::size_t first_new = grid->size();
   for (auto& m : messages) {
     if (valve_model && m.stream == InputStream::kValve) valve_model->process(&m.sample);
     resampler.push(m.stream, m.sample, grid);
   }
+  if (!oil) return;
+  for (const StreamSample& t : temperatures)
+    oil->push(t.stamp, t.first, std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = first_new; i < grid->size(); ++i)
+    (*grid)[i].T = static_cast<float>(oil->peek((*grid)[i].t));
 }
 
 std::vector<GridSample> simulateGrid(DieCushionSimulator& simulator, double duration,
                                      const UniformResampler::Config& config) {
   UniformResampler resampler(config);
   ValveMessageSpool valve_model(simulator.config().valve, config.max_gap, true);
+  OilTemperatureInput oil;
   std::vector<GridSample> grid;
-  simulateOnGrid(simulator, duration, resampler, &grid, &valve_model);
+  simulateOnGrid(simulator, duration, resampler, &grid, &valve_model, &oil);
+  const std::size_t before_flush = grid.size();
   resampler.flush(&grid);
+  if (oil.any()) {
+    for (std::size_t i = before_flush; i < grid.size(); ++i)
+      grid[i].T = static_cast<float>(oil.peek(grid[i].t));
+  }
   return grid;
 }
 

@@ -17,7 +17,7 @@ namespace {
 OutputErrorFit refinedOn(int jobs, const die_cushion_ident::testing::Recording& r,
                          const IdentificationConfig& config, const HydraulicEstimate& start) {
   const HydraulicModel model =
-      HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects);
+      HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
   OutputErrorOptions options;
   options.jobs = jobs;
   options.max_samples = 6000;

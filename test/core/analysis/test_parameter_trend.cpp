@@ -32,6 +32,13 @@ std::vector<TrendPoint> dailySeries(int count, double (*level)(int), double rela
   return series;
 }
 
+// analyze_trend's design where it compares the recordings at the reference temperature: their logarithms.
+const SequentialDetectionOptions kRelative = [] {
+  SequentialDetectionOptions o = kDefault;
+  o.relative = true;
+  return o;
+}();
+
 // The first alarm in a series, or -1.
 std::pair<int, ParameterChange> firstDetection(const std::vector<TrendPoint>& series,
                                                const SequentialDetectionOptions& options = kDefault) {
@@ -137,6 +144,137 @@ TEST(ParameterTrend, RefusesBadOrShortSeries) {
   rare.recordings_between_false_alarms = 1e5;
   often.recordings_between_false_alarms = 100;
   EXPECT_GT(cusumThreshold(rare), cusumThreshold(often));
+}
+
+// ---- The oil's temperature as a covariate (issue 46) ----
+
+// A daily series as analyze_trend tracks it with an oil temperature: each recording's value at the reference
+// temperature (40 degC), left with what the oil's law missed, a relative `law_error` per kelvin (a configured
+// coefficient off by that much), and its own relative noise `noise` (reported as its std); the oil random in
+// 25-50 degC plus a seasonal 10 K over the series. `rise` from `onset` on (relative).
+std::vector<TrendPoint> oilSeries(int count, double law_error, double noise, double rise, int onset,
+                                  std::mt19937& rng, double season = 10.0) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> oil(25.0, 50.0);
+  std::vector<TrendPoint> series;
+  for (int i = 0; i < count; ++i) {
+    const double T = oil(rng) + season * i / std::max(count - 1, 1);
+    const double truth = 1.5e-12 * (i >= onset ? 1.0 + rise : 1.0) * std::exp(law_error * (T - 40.0));
+    series.push_back({1.77e9 + i * kDay, truth * (1.0 + noise * normal(rng)), noise * truth, T});
+  }
+  return series;
+}
+
+// The same leakage as recorded, without an oil temperature: the viscosity's +4.5 %/K swing is in the values.
+std::vector<TrendPoint> asRecorded(std::vector<TrendPoint> series) {
+  for (TrendPoint& p : series) {
+    p.value *= std::exp(0.045 * (p.covariate - 40.0));
+    p.std *= std::exp(0.045 * (p.covariate - 40.0));
+    p.covariate = std::nan("");
+  }
+  return series;
+}
+
+// The Done-when of issue 46 on the core: a 10 % rise at the reference temperature is reported within 3
+// recordings of its onset, dated +-1, in at least 90 % of 20 series whose oil swings over 25-60 degC and
+// whose configured law is off by up to 1 %/K (regressed out over the baseline); as recorded, without the
+// temperature, the same rise mostly goes unseen.
+TEST(ParameterTrend, ATenPercentRiseAtTheReferenceTemperatureIsFoundAcrossTheOilsSwing) {
+  std::mt19937 rng(46);
+  std::uniform_real_distribution<double> law_error(-0.01, 0.01), onset(12, 25);
+  int found = 0, found_as_recorded = 0, before = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const int start = static_cast<int>(onset(rng));
+    const auto series = oilSeries(30, law_error(rng), 0.005, 0.10, start, rng);
+    const auto [at, change] = firstDetection(series, kRelative);
+    before += at >= 0 && at < start;
+    const bool in_time =
+        at >= start && at <= start + 2 && std::abs(static_cast<int>(change.start_index) - start) <= 1;
+    found += in_time;
+    if (in_time) {
+      EXPECT_NEAR(change.after / change.before, 1.10, 0.03) << "trial " << trial << ": the rise's size";
+      EXPECT_TRUE(std::isfinite(change.slope)) << "the baseline regressed on the oil temperature";
+    }
+    const auto [at_recorded, unused] = firstDetection(asRecorded(series));
+    found_as_recorded += at_recorded >= start && at_recorded <= start + 2;
+  }
+  std::printf("10 %% rise: found in time in %d of 20 at 40 degC, %d of 20 as recorded; %d alarms before it\n",
+              found, found_as_recorded, before);
+  EXPECT_GE(found, 18) << "at least 90 % of the series";
+  EXPECT_EQ(before, 0);
+  EXPECT_LE(found_as_recorded, 10) << "as recorded, the oil's swing hides a 10 % rise";
+}
+
+// The regressed baseline keeps the design: on steady series whose values follow the oil temperature (a law
+// 1 %/K or -0.6 %/K off, the oil random over the day and with the seasons), the false alarms per recording
+// meet 1 / ARL (the baseline without the covariate is printed for comparison).
+TEST(ParameterTrend, WithTheOilTemperatureRegressedOutFalseAlarmsMeetTheDesign) {
+  std::mt19937 rng(47);
+  SequentialDetectionOptions options;
+  options.recordings_between_false_alarms = 500.0;
+  options.relative = true;
+  int alarms = 0, alarms_without = 0;
+  long recordings = 0;
+  for (int s = 0; s < 80; ++s) {
+    auto series = oilSeries(2000, s % 2 ? 0.01 : -0.006, 0.005, 0.0, 1 << 30, rng);
+    // The season's drift over the whole series would be 10 K: over 2000 recordings it repeats yearly.
+    for (std::size_t i = 0; i < series.size(); ++i) {
+      const double season = 5.0 * std::sin(2.0 * M_PI * static_cast<double>(i) / 750.0);
+      const double T = series[i].covariate - 10.0 * i / 1999.0 + season;
+      series[i].value *= std::exp((s % 2 ? 0.01 : -0.006) * (T - series[i].covariate));
+      series[i].covariate = T;
+    }
+    alarms += static_cast<int>(detectChangesSequentially(series, options).size());
+    auto without = series;
+    for (TrendPoint& p : without) p.covariate = std::nan("");
+    if (s < 10) alarms_without += static_cast<int>(detectChangesSequentially(without, options).size());
+    recordings += 2000;
+  }
+  const double per_recording = static_cast<double>(alarms) / recordings;
+  std::printf(
+      "with the oil temperature regressed out: %d false alarms in %ld recordings, one per %.0f "
+      "(designed %.0f); without it, %d in 20000\n",
+      alarms, recordings, 1.0 / per_recording, options.recordings_between_false_alarms, alarms_without);
+  EXPECT_LE(per_recording, 1.2 / options.recordings_between_false_alarms);
+  EXPECT_GE(per_recording, 0.5 / options.recordings_between_false_alarms);
+}
+
+// The smallest detectable change the trend states is what its test achieves: a step of that size, injected
+// into the series' next three recordings, is reported within them about as often as stated (90 %); with the
+// oil temperature regressed out (the season warming the oil), and as recorded (its swing in the scatter).
+TEST(ParameterTrend, TheStatedSmallestChangeIsFoundAsOftenAsStated) {
+  std::mt19937 rng(48);
+  for (bool with_temperature : {true, false}) {
+    int trials = 0, found = 0;
+    double relative = 0.0;
+    for (int trial = 0; trial < 60; ++trial) {
+      // As recorded, the season's warming (+4.5 %/K in the values) would add to any rise: a steady oil there.
+      const auto full = oilSeries(23, 0.004, 0.005, 0.0, 1 << 30, rng, with_temperature ? 10.0 : 0.0);
+      const auto series = with_temperature ? full : asRecorded(full);
+      // As analyze_trend states it: the history's smallest detectable change, then the next three recordings
+      // with a step of that size, through the same test.
+      const SequentialDetectionOptions& options = with_temperature ? kRelative : kDefault;
+      DetectableChange d;
+      const std::vector<TrendPoint> history(series.begin(), series.begin() + 20);
+      if (!detectChangesSequentially(history, options, &d).empty())
+        continue;  // a false alarm: not the question
+      ASSERT_TRUE(std::isfinite(d.step)) << "trial " << trial;
+      relative += d.step / d.level;
+      ++trials;
+      std::vector<TrendPoint> shifted = series;
+      for (int i = 20; i < 23; ++i) shifted[i].value += d.step;
+      const auto changes = detectChangesSequentially(shifted, options);
+      found += !changes.empty() && changes.front().alarm_index >= 20;
+    }
+    const double rate = static_cast<double>(found) / trials;
+    std::printf(
+        "%s: smallest detectable change %.1f %% of the level on average; found %d of %d (%.0f %%)\n",
+        with_temperature ? "at 40 degC, regressed on the oil temperature" : "as recorded, no temperature",
+        100.0 * relative / trials, found, trials, 100.0 * rate);
+    // Measured: 82 % of 60 (85 % of 100) at 40 degC with the season warming the oil, 90 % as recorded.
+    EXPECT_GE(rate, 0.75) << "stated 90 %: not much less";
+    EXPECT_LE(rate, 0.98) << "stated 90 %: not much more (the statement would be loose)";
+  }
 }
 
 }  // namespace

@@ -5,11 +5,13 @@
 #include "die_cushion_ident/core/model/effect_library.h"
 #include "die_cushion_ident/core/model/effects/custom_flow_effect.h"
 #include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/model/oil_temperature_law.h"
 
 using namespace die_cushion_ident;
 
 TEST(EffectLibrary, NamesAreTheContractsNames) {
-  const std::vector<std::string> expected{"leakage", "entrained_air", "valve_overlap", "tank_pressure"};
+  const std::vector<std::string> expected{"leakage", "entrained_air", "valve_overlap", "tank_pressure",
+                                          "oil_temperature"};
   EXPECT_EQ(libraryEffectNames(), expected);
   for (const auto& name : expected) {
     const auto effect = makeLibraryEffect(name);
@@ -21,6 +23,12 @@ TEST(EffectLibrary, NamesAreTheContractsNames) {
   EXPECT_EQ(makeLibraryEffect("entrained_air")->parameter().name, "air_volume");
   EXPECT_EQ(makeLibraryEffect("valve_overlap")->parameter().name, "valve_overlap");
   EXPECT_EQ(makeLibraryEffect("tank_pressure")->parameter().name, "tank_pressure");
+  EXPECT_EQ(makeLibraryEffect("oil_temperature")->parameter().name, "bulk_modulus_temperature_coefficient");
+  EXPECT_EQ(makeLibraryEffect("oil_temperature")->parameter().unit, "1/K");
+  // Only the oil's temperature reads the optional topic: the ranking offers it only where a recording has it.
+  for (const auto& name : expected) {
+    EXPECT_EQ(makeLibraryEffect(name)->needsOilTemperature(), name == "oil_temperature") << name;
+  }
 }
 
 TEST(EffectLibrary, UnknownNameListsTheKnownOnes) {
@@ -198,4 +206,111 @@ TEST(CustomFlowEffect, TermsThatCannotBeAFlowAreRefusedWithTheReason) {
   }
   EXPECT_NO_THROW(CustomFlowEffect("constant", "1")) << "a constant flow is a model (q0), not a fault";
   EXPECT_NO_THROW(CustomFlowEffect("compressibility", "p*dp"));
+}
+
+// The oil's temperature (issue 46): K'(T) = K'(T0) (1 + alpha (T - T0)) and a laminar leakage
+// G(T) = G(T0) exp(beta (T - T0)), T in degC; without a temperature nothing changes.
+TEST(OilTemperature, TheBulkModulusAndALaminarLeakageFollowTheOilsLaw) {
+  OilTemperatureLaw law;  // reference 40 degC, alpha -0.004 /K, beta 0.045 /K
+  const HydraulicModel model =
+      HydraulicModel::fromNames(CylinderGeometry(), {"leakage", "oil_temperature"}, {}, law);
+  ASSERT_EQ(model.oilStateParameter(), HydraulicModel::kFirstEffect + 1);
+  ParameterVector theta(5);
+  theta << 1.2e9, 6e-6, 3e-3, 1.5e-11, -0.004;
+  HydraulicSignals s;
+  s.p = 100e5;
+  s.x = 0.1;
+  s.V = model.chamberVolume(s.x, theta(2));
+  const double cold = model.capacitance(s, theta), cold_leak = model.extraOutflow(s, theta);
+  EXPECT_DOUBLE_EQ(cold, s.V / 1.2e9) << "no temperature measured: the model holds at its origin";
+  EXPECT_DOUBLE_EQ(cold_leak, 1.5e-11 * 100e5);
+  s.T = 60.0;  // 20 K above the origin
+  EXPECT_NEAR(model.capacitance(s, theta), s.V / (1.2e9 * (1.0 - 0.004 * 20.0)), 1e-9 * cold)
+      << "the bulk modulus 8 % lower at 20 K warmer";
+  // Arrhenius with the slope 4.5 %/K at 40 degC: exp(0.045 313.15^2 (1/313.15 - 1/333.15)) = 2.33.
+  EXPECT_NEAR(model.extraOutflow(s, theta),
+              cold_leak * std::exp(0.045 * 313.15 * 313.15 * (1 / 313.15 - 1 / 333.15)), 1e-12 * cold_leak)
+      << "the leakage 2.33-fold at 20 K warmer (the viscosity's Arrhenius law)";
+  EXPECT_NEAR(std::log(law.laminarFlowRatio(39.99, 40.01)) / 0.02, 0.045, 1e-6)
+      << "its slope at 40 degC is beta";
+  s.T = 40.0;
+  EXPECT_NEAR(model.capacitance(s, theta), cold, 1e-12 * cold) << "at the origin the factors are 1";
+  // The same plant without the effect ignores the temperature.
+  const HydraulicModel plain = HydraulicModel::fromNames(CylinderGeometry(), {"leakage"}, {}, law);
+  s.T = 60.0;
+  EXPECT_DOUBLE_EQ(plain.capacitance(s, theta.head(4)), s.V / 1.2e9);
+  EXPECT_DOUBLE_EQ(plain.extraOutflow(s, theta.head(4)), cold_leak);
+}
+
+// The regression columns reproduce the balance exactly at the linearisation point, the coefficient alpha/K'
+// maps back to alpha with its Jacobian, and away from the point the error is second order in alpha's.
+TEST(OilTemperature, RegressionColumnsAreExactAtTheirLinearisationPoint) {
+  OilTemperatureLaw law;
+  law.temperature_origin = 47.0;
+  const HydraulicModel model =
+      HydraulicModel::fromNames(CylinderGeometry(), {"leakage", "oil_temperature"}, {}, law);
+  ParameterVector theta(5);
+  theta << 1.1e9, 6e-6, 2.5e-3, 1.0e-11, -0.0045;
+  const ParameterVector c = model.coefficientsFromPhysical(theta);
+  EXPECT_NEAR(c(4), -0.0045 / 1.1e9, 1e-25) << "the effect's coefficient is alpha / K'";
+  CovarianceMatrix J;
+  const ParameterVector back = model.physicalFromCoefficients(c, &J);
+  for (int i = 0; i < 5; ++i) EXPECT_NEAR(back(i), theta(i), 1e-12 * std::abs(theta(i)) + 1e-30);
+  // The Jacobian of alpha against a finite difference in 1/K' and alpha/K'.
+  for (int j : {0, 4}) {
+    ParameterVector moved = c;
+    moved(j) *= 1.0 + 1e-6;
+    const double numeric = (model.physicalFromCoefficients(moved)(4) - theta(4)) / (moved(j) - c(j));
+    EXPECT_NEAR(J(4, j), numeric, 1e-4 * std::abs(numeric)) << "d alpha / d c_" << j;
+  }
+  const auto balance = [&](const ParameterVector& point, double T) {
+    HydraulicSignals s;
+    s.p = 80e5;
+    s.x = 0.07;
+    s.y = 0.3;
+    s.T = T;
+    s.V = model.chamberVolume(s.x, point(2));
+    double a[kMaxParameters], g[kMaxParameters];
+    model.regressionColumns(s, point, a, g);
+    const double dp = 3e7;  // [Pa/s]
+    double flow = 0.0;
+    for (int j = 0; j < 5; ++j) flow += c(j) * (a[j] * dp + g[j]);
+    return flow -
+           (model.capacitance(s, theta) * dp + model.valveFlow(s, theta) + model.extraOutflow(s, theta));
+  };
+  const double scale = model.capacitance(HydraulicSignals{0, 80e5, 0, 0.07, 0, 0, 0.3, 0.0032}, theta) * 3e7;
+  for (double T : {25.0, 47.0, 60.0}) {
+    EXPECT_NEAR(balance(theta, T), 0.0, 1e-12 * scale) << "at the fixed point, T = " << T << " degC";
+  }
+  ParameterVector off = theta;
+  off(4) = -0.0035;  // 0.1 %/K off
+  const double first = std::abs(balance(off, 60.0));
+  off(4) = -0.0040;  // half as far
+  const double second = std::abs(balance(off, 60.0));
+  EXPECT_GT(first, 0.0);
+  EXPECT_NEAR(second / first, 0.25, 0.05)
+      << "second order in alpha's error: half as far, a quarter the error";
+}
+
+// Laminar leakage only: a custom flow keeps its own law, and the oil's law stays finite for any alpha an
+// early estimate may pass through.
+TEST(OilTemperature, OnlyLaminarFlowsFollowTheViscosityAndTheLawStaysFinite) {
+  OilTemperatureLaw law;
+  double factor = 0.0, slope = 0.0;
+  law.compressibility(140.0, -0.02, &factor, &slope);  // 1 + alpha dT = -1: held
+  EXPECT_TRUE(std::isfinite(factor) && factor > 0.0) << factor;
+  law.compressibility(std::nan(""), -0.004, &factor, &slope);
+  EXPECT_EQ(factor, 1.0);
+  EXPECT_EQ(slope, 0.0);
+  EXPECT_EQ(law.laminarFlowFactor(std::nan("")), 1.0);
+  const HydraulicModel model =
+      HydraulicModel::fromNames(CylinderGeometry(), {"oil_temperature"}, {"drain=p"}, law);
+  ParameterVector theta(5);
+  theta << 1.2e9, 6e-6, 3e-3, -0.004, 1e-11;
+  HydraulicSignals s;
+  s.p = 100e5;
+  s.T = 60.0;
+  EXPECT_DOUBLE_EQ(model.extraOutflow(s, theta), 1e-11 * 100e5) << "a custom flow's law is its own";
+  EXPECT_THROW(HydraulicModel::fromNames(CylinderGeometry(), {"oil_temperature", "oil_temperature"}),
+               std::invalid_argument);
 }

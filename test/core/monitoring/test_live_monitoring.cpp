@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <thread>
 
 #include "die_cushion_ident/core/monitoring/live_diagnostics.h"
@@ -243,6 +244,35 @@ TEST(LiveDiagnostics, InputLevelsAndWords) {
   valve.spool_age = 1e18;
   EXPECT_EQ(inputHealth(valve).level, HealthLevel::kWarn);
   EXPECT_NE(inputHealth(valve).message.find("spool position not measured"), std::string::npos);
+}
+
+// The optional oil temperature topic (issue 46): OK while it arrives, and while absent where the model does
+// not need it; WARN on rejections, a silence longer than it holds, or none while the model needs it.
+TEST(LiveDiagnostics, OilTemperatureLevelsAndWords) {
+  OilTemperatureState state;
+  state.topic = "/die_cushion/oil_temperature";
+  state.now = 100.0;
+  EXPECT_EQ(oilTemperatureHealth(state).level, HealthLevel::kOk) << "optional: not received is no fault";
+  state.model_uses_it = true;
+  HealthReport r = oilTemperatureHealth(state);
+  EXPECT_EQ(r.level, HealthLevel::kWarn);
+  EXPECT_NE(r.message.find("cannot act"), std::string::npos) << r.message;
+  ASSERT_EQ(state.input.push(99.5, 45.2, 99.9), UniformResampler::PushResult::kAccepted);
+  r = oilTemperatureHealth(state);
+  EXPECT_EQ(r.level, HealthLevel::kOk) << r.message;
+  EXPECT_EQ(r.value("latest [degC]"), "45.20");
+  EXPECT_NE(r.message.find("45.2 degC"), std::string::npos) << r.message;
+  state.now = 115.0;  // 15.5 s since the last message, which holds 10 s
+  r = oilTemperatureHealth(state);
+  EXPECT_EQ(r.level, HealthLevel::kWarn);
+  EXPECT_NE(r.message.find("silent for 15.5 s"), std::string::npos) << r.message;
+  state.now = 100.5;
+  ASSERT_EQ(state.input.push(100.0, std::nan(""), 100.0), UniformResampler::PushResult::kNonFinite);
+  state.last_rejection = "non-finite stamp or value";
+  r = oilTemperatureHealth(state);
+  EXPECT_EQ(r.level, HealthLevel::kWarn);
+  EXPECT_EQ(r.value("rejected"), "1");
+  EXPECT_NE(r.message.find("1 messages rejected, last: non-finite"), std::string::npos) << r.message;
 }
 
 TEST(LiveDiagnostics, AllInputsSilentForIsTheYoungestTopicsAge) {

@@ -28,6 +28,7 @@ enum class WarningCode {
   kValveModel,             ///< the valve model the analysis had to assume or replace
   kNotFinite,              ///< figures that could not be computed, written as null
   kCyclesThinned,          ///< a long recording's cycle-based analyses judged evenly spaced cycles
+  kOilTemperature,         ///< the oil temperature the model needs is missing in part or whole
 };
 
 /// The code's name in summary.yaml ("geometry_default", ...).

@@ -33,6 +33,12 @@ class EvenlyThinnedCycles {
   void reserve(std::size_t samples);
 
   const std::vector<GridSample>& grid() const { return kept_; }
+  /// Sets each kept sample's oil temperature to `at(t)` [degC] (the offline analysis, once every message of
+  /// the slow temperature topic is in: while reading, a sample takes the newest one that has arrived).
+  template <typename At>
+  void setOilTemperature(At at) {
+    for (GridSample& g : kept_) g.T = static_cast<float>(at(g.t));
+  }
   /// 1 while every sample is kept, else every stride-th cycle is (a power of 2).
   int stride() const { return stride_; }
   std::uint64_t samplesSeen() const { return samples_seen_; }

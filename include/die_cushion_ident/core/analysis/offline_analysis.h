@@ -15,6 +15,7 @@
 #include "die_cushion_ident/core/analysis/model_assessment.h"
 #include "die_cushion_ident/core/analysis/output_error_refinement.h"
 #include "die_cushion_ident/core/analysis/parameter_uncertainty.h"
+#include "die_cushion_ident/core/analysis/reference_temperature.h"
 #include "die_cushion_ident/core/analysis/settings_from_recording.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
@@ -38,6 +39,25 @@ struct GridThinning {
   int cycles_seen = 0;  ///< impacts in the recording
   int cycles_kept = 0;  ///< of them kept
   std::size_t samples_kept = 0;
+};
+
+/// The recording's oil temperature (the optional topic), where it has one.
+struct OilTemperatureRecord {
+  StreamHealth health;      ///< the topic's messages: rate, rejections, gaps
+  std::uint64_t jumps = 0;  ///< of health.implausible: a step faster than max_plausible_oil_temperature_rate
+  /// [degC] over the accepted messages.
+  double mean = std::numeric_limits<double>::quiet_NaN();
+  double lowest = std::numeric_limits<double>::quiet_NaN();
+  double highest = std::numeric_limits<double>::quiet_NaN();
+  /// [s] the messages' mean stamp against the other topics' newest when they arrived (informative).
+  double stamp_offset = std::numeric_limits<double>::quiet_NaN();
+  /// Of the analysed grid's complete samples, the share with a temperature (1: the topic never fell silent).
+  double grid_share = 0.0;
+  /// [degC] the temperature the model's parameters hold at: the analysed grid's mean oil temperature.
+  double origin = std::numeric_limits<double>::quiet_NaN();
+  /// [degC] and the model's parameters carried there (parametersAtTemperature).
+  double reference = std::numeric_limits<double>::quiet_NaN();
+  std::vector<ParameterAtTemperature> at_reference;
 };
 
 /// Everything analyze_bag reports.
@@ -75,6 +95,8 @@ struct OfflineResult {
   std::vector<AnalysisWarning> warnings;
   /// The settings chosen from the recording (analyze_bag's survey), when they were.
   std::optional<SettingsChoice> settings;
+  /// The oil temperature, where the recording has the topic (a message of it, accepted or not).
+  std::optional<OilTemperatureRecord> oil_temperature;
   /// Part of the analysis could not run (no complete stroke, no usable sample, an implausible parameter):
   /// the reasons are in `warnings`; analyze_bag exits with 5.
   bool partial = false;
@@ -125,6 +147,8 @@ class OfflineAnalysis {
   }
 
   void push(InputStream stream, const StreamSample& sample);
+  /// One message of the optional oil temperature topic (`sample.first` in degC).
+  void pushOilTemperature(const StreamSample& sample);
   /// Reserves the grid for a recording of about `seconds` (a hint: growth by doubling would hold up to twice
   /// the memory an hour of grid needs). Ignored when not finite or beyond `max_seconds`.
   void reserve(double seconds, double max_seconds);
@@ -160,7 +184,12 @@ class OfflineAnalysis {
   EstimateSeries estimates_;
   SweepCandidateFilter valve_filter_;
   MessageNoise pressure_noise_;  // the sensor's, for grids finer than its messages
+  std::vector<std::pair<double, double>> oil_messages_;  // the oil temperature's accepted (stamp, degC)
+  std::uint64_t oil_received_ = 0;
   void endInput();  // flushes the pipeline once
+  // The grid's oil temperature from every accepted message (a sample took the newest that had arrived while
+  // reading), the model's temperature origin at its mean, and what the topic gave.
+  void settleOilTemperature(OfflineResult* result);
   // identify()'s steps: the strokes, the fit to the whole recording, whether it is plausible and whether a
   // parameter changes within it; then the free run's refinement, the stds and the model comparison.
   void fitTheWholeRecording(const HydraulicModel& model, bool velocity, double highest, OfflineResult* result,

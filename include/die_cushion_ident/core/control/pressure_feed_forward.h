@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -68,6 +69,9 @@ class PressureFeedForward {
   }
   /// [s] how far ahead the trajectory should be taken: the valve's dead time plus 2 D / w0.
   double leadTime() const { return lead_; }
+  /// The oil's temperature [degC] the model's oil_temperature effect reads (NaN: not measured, the
+  /// parameters as they are, at the reference temperature).
+  void setOilTemperature(double celsius) { oil_temperature_ = celsius; }
 
  private:
   /// The wanted valve flow's inverse over the characteristic at `s` (s.y is set on the way).
@@ -80,6 +84,7 @@ class PressureFeedForward {
   double valve_gain_;
   double max_voltage_;
   double lead_;
+  double oil_temperature_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// What the feed-forward accepts of the cell controller's set-point stream.

@@ -7,8 +7,10 @@
 #include <vector>
 
 #include "die_cushion_ident/core/model/hydraulic_signals.h"
-#include "die_cushion_ident/core/valve/servo_valve.h"
+#include "die_cushion_ident/core/model/oil_temperature_law.h"
+#include "die_cushion_ident/core/signal/oil_temperature_input.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
 
 namespace die_cushion_ident {
 
@@ -32,6 +34,9 @@ struct IdentificationConfig {
   CylinderGeometry geometry;                ///< piston_area, stroke_length, supply_pressure
   std::vector<std::string> effects;         ///< library effects in the model
   std::vector<std::string> custom_effects;  ///< NAME=EXPR
+  /// The oil's temperature law: reference temperature [degC], the coefficients [1/K] of the bulk modulus and
+  /// of a laminar leakage, and the temperature the model's parameters hold at (doc/equations.md).
+  OilTemperatureLaw oil;
 
   UniformResampler::Config resampler;    ///< sample_period 0.002 s (paper), gaps, staleness
   int moving_average_width = 31;         ///< b [samples], odd (paper: 31)
@@ -93,8 +98,28 @@ struct IdentificationConfig {
   double plausible_stroke_margin = 0.1;   ///< x in [-margin s, (1 + margin) s]
   double max_plausible_velocity = 10.0;   ///< [m/s] |v|
   double max_plausible_voltage = 100.0;   ///< [V] |u|; the spool |y| <= 1.5 (normalised to 1)
+  /// [degC] the oil temperature topic's plausible range (a mineral oil's pour point to its flash point's
+  /// margin); outside, and NaN, is rejected and counted.
+  double min_plausible_oil_temperature = -30.0;
+  double max_plausible_oil_temperature = 150.0;
+  /// [K/s] an oil in a tank of litres cannot change faster: a message that jumps more from the last accepted
+  /// one is rejected as implausible (a sensor fault, a wrong channel).
+  double max_plausible_oil_temperature_rate = 2.0;
+  /// [s] how long the last oil temperature holds without a new message; beyond, the grid has none (the
+  /// topic fell silent: the oil_temperature effect does nothing there, and the analysis says so).
+  double oil_temperature_max_age = 10.0;
   /// The resampler's configuration with the plausible bounds filled in from the geometry.
   UniformResampler::Config resamplerConfig() const;
+  /// The oil temperature topic's checks.
+  OilTemperatureInput::Config oilTemperatureInputConfig() const {
+    OilTemperatureInput::Config c;
+    c.min_plausible = min_plausible_oil_temperature;
+    c.max_plausible = max_plausible_oil_temperature;
+    c.max_rate = max_plausible_oil_temperature_rate;
+    c.max_age = oil_temperature_max_age;
+    c.gap = 0.5 * oil_temperature_max_age;
+    return c;
+  }
 
   /// topic_delays with unset entries as 0.
   std::array<double, kInputStreamCount> appliedTopicDelays() const;

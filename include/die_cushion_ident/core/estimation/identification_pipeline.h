@@ -7,10 +7,11 @@
 #include <vector>
 
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
-#include "die_cushion_ident/core/valve/servo_valve.h"
-#include "die_cushion_ident/core/valve/valve_message_spool.h"
+#include "die_cushion_ident/core/signal/oil_temperature_input.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/signal/velocity_from_position.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
+#include "die_cushion_ident/core/valve/valve_message_spool.h"
 
 namespace die_cushion_ident {
 
@@ -28,6 +29,9 @@ class IdentificationPipeline {
   explicit IdentificationPipeline(const IdentificationConfig& config);
 
   UniformResampler::PushResult push(InputStream stream, const StreamSample& sample);
+  /// One message of the optional oil temperature topic (`sample.first` in degC): every grid sample from now
+  /// on carries the temperature at its time (GridSample::T; OilTemperatureInput).
+  UniformResampler::PushResult pushOilTemperature(const StreamSample& sample);
   void flush();
   void reset();
   void setStepCallback(StepCallback callback) { on_step_ = std::move(callback); }
@@ -54,6 +58,10 @@ class IdentificationPipeline {
   const HydraulicIdentifier& identifier() const { return identifier_; }
   HydraulicIdentifier& identifier() { return identifier_; }
   const UniformResampler& resampler() const { return resampler_; }
+  const OilTemperatureInput& oilTemperature() const { return oil_temperature_; }
+  /// Takes over another pipeline's oil temperature messages and counts (a pipeline rebuilt with new
+  /// settings).
+  void adoptOilTemperature(const OilTemperatureInput& input) { oil_temperature_ = input; }
 
  private:
   void consume();
@@ -68,6 +76,7 @@ class IdentificationPipeline {
   StepCallback on_step_;
   GridCallback on_grid_;
   ValveMessageSpool spool_model_;
+  OilTemperatureInput oil_temperature_;
 };
 
 }  // namespace die_cushion_ident

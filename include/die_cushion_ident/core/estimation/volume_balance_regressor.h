@@ -1,10 +1,12 @@
 #pragma once
 
-#include "die_cushion_ident/core/signal/white_noise_estimator.h"
-#include "die_cushion_ident/core/model/hydraulic_model.h"
+#include <limits>
+
 #include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/model/hydraulic_model.h"
 #include "die_cushion_ident/core/signal/signal_filters.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
+#include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/valve/servo_valve.h"
 
 namespace die_cushion_ident {
@@ -15,6 +17,7 @@ struct RegressionRow {
   double z = 0.0;                             ///< displaced flow A v [m^3/s]
   double phi[kMaxParameters] = {};            ///< column j multiplies coefficient c_j (HydraulicModel)
   double p = 0.0, x = 0.0, u = 0.0, y = 0.0;  ///< measured signals at t
+  double T = std::numeric_limits<double>::quiet_NaN();  ///< oil temperature at t [degC]; NaN: none
   double velocity = 0.0;                      ///< window-mean dx/dt [m/s]
   double pressure_rate = 0.0;                 ///< window-mean dp/dt [Pa/s]
   bool valid = false;                         ///< every sample under the window was usable
@@ -44,7 +47,7 @@ class VolumeBalanceRegressor {
   int delaySamples() const { return delay_; }
 
  private:
-  HydraulicSignals signalsAt(double t, double p, double dp, double x, double v, double u, double y,
+  HydraulicSignals signalsAt(double t, double p, double dp, double x, double v, double u, double y, double T,
                              const ParameterVector& linearisation_point) const;
   /// `split_at_kink`: the spool crossed 0 within the sample's interval; its valve columns are the drain
   /// part's flow plus the supply part's (GridSample::y_drain, y_supply).

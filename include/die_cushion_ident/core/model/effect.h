@@ -29,10 +29,12 @@ struct ValvePort {
 /// Additive effects enter the volume balance linearly:
 ///   C += theta * capacitancePerUnit(signals),   Q_extra += theta * outflowPerUnit(signals).
 /// Valve-shape effects reshape the valve port (dead band, back pressure); they are nonlinear in theta and
-/// the identifier relinearises them around the current estimate (doc/equations.md).
+/// the identifier relinearises them around the current estimate (doc/equations.md). Oil-state effects change
+/// the oil itself (its temperature): they scale the oil's compressibility V/K' by a factor nonlinear in
+/// theta, relinearised like the valve shape, and the laminar flows of the additive effects by a known factor.
 class Effect {
  public:
-  enum class Coupling { kAdditive, kValveShape };
+  enum class Coupling { kAdditive, kValveShape, kOilState };
 
   virtual ~Effect() = default;
   virtual std::unique_ptr<Effect> clone() const = 0;
@@ -41,6 +43,8 @@ class Effect {
   virtual std::string name() const = 0;
   /// One line of physics for a user who wonders what the effect means.
   virtual std::string explanation() const = 0;
+  /// The same with the parameter's fitted value in it where that says more ("... at -0.41 %/K").
+  virtual std::string explanationFor(double /*theta*/) const { return explanation(); }
   virtual ParameterInfo parameter() const = 0;
   /// The parameter with its physical range scaled to this cushion (a sign check alone would accept an air
   /// volume of 1 m^3 or a leakage of 6000 l/min at 100 bar).
@@ -66,6 +70,22 @@ class Effect {
   /// derivative of both port quantities with respect to theta in `derivative`.
   virtual void shapeValvePort(double /*y*/, double /*theta*/, ValvePort& /*port*/,
                               ValvePort& /*derivative*/) const {}
+
+  /// Additive effects: the flow passes a narrow gap (laminar, conductance inversely proportional to the
+  /// oil's viscosity): it follows the oil's temperature where the model has an oil-state effect.
+  virtual bool laminarFlow() const { return false; }
+  /// Whether the effect reads the oil temperature (HydraulicSignals::T): offered by the effect ranking only
+  /// where the recording has one.
+  virtual bool needsOilTemperature() const { return false; }
+  /// Oil-state effects: the factor on the oil's compressibility V/K' at the signals for parameter theta
+  /// (1 at the model's temperature origin), and its derivative in theta.
+  virtual void compressibility(const HydraulicSignals& /*signals*/, double /*theta*/, double* factor,
+                               double* slope) const {
+    *factor = 1.0;
+    *slope = 0.0;
+  }
+  /// Oil-state effects: the factor on laminar flows at the signals (1 at the temperature origin).
+  virtual double laminarFlowFactor(const HydraulicSignals& /*signals*/) const { return 1.0; }
 };
 
 }  // namespace die_cushion_ident

@@ -14,6 +14,9 @@ struct HydraulicSignals {
   double u = 0.0;   ///< valve command voltage [V]
   double y = 0.0;   ///< spool position, normalised [-1, 1]; > 0 drains to tank
   double V = 0.0;   ///< chamber volume V_dead + A (s - x) [m^3]
+  /// The oil's temperature [degC] (REP 103, as sensor_msgs/Temperature has it); NaN where none is measured.
+  /// Read by the oil_temperature effect only; not offered to custom formulas.
+  double T = std::numeric_limits<double>::quiet_NaN();
   /// The spool position that decides which port of the valve is open; NaN: y itself. The regression sets
   /// it from the neighbouring samples of a measured spool, whose own noise must not pick the port
   /// (doc/equations.md, "Spool noise at the port's kink"). Not offered to custom formulas.

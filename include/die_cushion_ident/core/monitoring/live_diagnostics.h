@@ -50,6 +50,20 @@ double allInputsSilentFor(const UniformResampler& resampler, double now);
 /// Rate, counts and jitter of a topic; ERROR when silent, stale, every message rejected or its clock jumped.
 HealthReport inputHealth(const InputState& input);
 
+/// What the node knows of the optional oil temperature topic.
+struct OilTemperatureState {
+  std::string topic;           ///< resolved name
+  OilTemperatureInput input;   ///< its checks and statistics
+  double now = 0.0;            ///< [s] ROS time
+  std::string last_rejection;  ///< why the last message was not used
+  bool model_uses_it = false;  ///< the model has the effect oil_temperature
+};
+
+/// The oil temperature topic: OK and its latest value while it arrives (or, not received, where the model
+/// does not need it: the topic is optional); WARN when messages were rejected, it fell silent for longer than
+/// it holds, or the model needs it and none came.
+HealthReport oilTemperatureHealth(const OilTemperatureState& state);
+
 /// The estimates with their stds; ERROR when one is not finite or outside its parameter's physical range
 /// (ParameterInfo bounds, the same check as analyze_bag's) by more than kImplausibleSigmas stds.
 HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimate& estimate);

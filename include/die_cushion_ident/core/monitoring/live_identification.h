@@ -74,6 +74,11 @@ class LiveIdentification {
 
   /// One input message (stamps in seconds, values in SI). The resampler's verdict on it.
   UniformResampler::PushResult push(InputStream stream, const StreamSample& sample);
+  /// One message of the optional oil temperature topic (`sample.first` in degC): the grid samples carry it
+  /// from now on (the oil_temperature effect reads it). Its checks' verdict (OilTemperatureInput).
+  UniformResampler::PushResult pushOilTemperature(const StreamSample& sample) {
+    return pipeline_->pushOilTemperature(sample);
+  }
   /// Takes a finished settings study (push does so too): for an owner whose messages have stopped.
   void poll();
   /// What happened since the last call, oldest first.

@@ -52,6 +52,10 @@ struct GridSample {
   /// clean fast press 3 bar wrong (doc/equations.md, "The free run's spool"). NaN where there is none: the
   /// free run then takes the measured spool.
   float y_model = std::numeric_limits<float>::quiet_NaN();
+  /// The oil's temperature [degC] at t (the optional oil temperature topic, OilTemperatureInput, filled in by
+  /// IdentificationPipeline); NaN where none was measured or the topic fell silent. In the struct's padding:
+  /// a sample stays 48 bytes.
+  float T = std::numeric_limits<float>::quiet_NaN();
   bool complete = true;
   bool discontinuity = false;
 };
@@ -181,6 +185,8 @@ class UniformResampler {
 
 /// Whether any grid sample holds a measured spool (its drain and supply parts are NaN otherwise).
 bool spoolMeasured(const std::vector<GridSample>& grid);
+/// Whether any grid sample holds an oil temperature.
+bool oilTemperatureMeasured(const std::vector<GridSample>& grid);
 
 /// Why a message was not taken, in words ("" for kAccepted, kRestarted and kHeld).
 const char* pushResultText(UniformResampler::PushResult result);

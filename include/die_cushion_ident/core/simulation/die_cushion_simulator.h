@@ -1,7 +1,9 @@
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -9,13 +11,14 @@
 #include <string>
 #include <vector>
 
+#include "die_cushion_ident/core/control/pressure_feed_forward.h"
 #include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/signal/oil_temperature_input.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
 #include "die_cushion_ident/core/simulation/press_cycle.h"
 #include "die_cushion_ident/core/simulation/pressure_controller.h"
-#include "die_cushion_ident/core/control/pressure_feed_forward.h"
 #include "die_cushion_ident/core/valve/servo_valve.h"
 #include "die_cushion_ident/core/valve/valve_message_spool.h"
-#include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 namespace die_cushion_ident {
 
@@ -34,11 +37,28 @@ struct SensorConfig {
   double drop_probability = 0.0;  ///< chance that a message is lost
 };
 
+/// The oil's temperature while the simulated press runs, and its sensor.
+struct OilTemperatureProfile {
+  /// [degC] at the start; NaN (default): the oil's temperature is neither modelled nor recorded.
+  double start = std::numeric_limits<double>::quiet_NaN();
+  double warming_rate =
+      0.0;  ///< [K/s] the oil warms linearly over the run (a shift's start: ~20 K in 30 min)
+  double sensor_noise = 0.05;  ///< [K] standard deviation of the sensor's readings
+  double sensor_rate = 2.0;    ///< [Hz] temperature messages
+  bool recorded() const { return std::isfinite(start); }
+  /// [degC] the true oil temperature at t (NaN where none is modelled).
+  double at(double t) const { return start + warming_rate * t; }
+};
+
 struct SimulatorConfig {
   CylinderGeometry geometry;
   std::vector<std::string> effects;          ///< active in the plant
   std::vector<std::string> custom_effects;   ///< NAME=EXPR, active in the plant
   std::map<std::string, double> parameters;  ///< true physical parameters by name; others take defaults
+  /// The oil's law; with the effect oil_temperature the true parameters hold at its origin (the reference
+  /// temperature, 40 degC, unless set), its coefficient bulk_modulus_temperature_coefficient.
+  OilTemperatureLaw oil;
+  OilTemperatureProfile oil_temperature;  ///< the oil's temperature over the run, and its sensor
   ServoValveParameters valve;
   PressCycleConfig cycle;
   PressureControllerConfig controller;
@@ -72,7 +92,13 @@ class DieCushionSimulator {
   explicit DieCushionSimulator(const SimulatorConfig& config);
 
   /// Advances by one control period; messages that fell due are appended to `out` in stamp order per stream.
+  /// The oil temperature's messages (config.oil_temperature) are kept for takeOilTemperature().
   void step(std::vector<SimulatedMeasurement>* out);
+  /// The oil temperature messages (stamp, degC in `first`) sent since the last call, oldest first.
+  void takeOilTemperature(std::vector<StreamSample>* out) {
+    out->insert(out->end(), oil_messages_.begin(), oil_messages_.end());
+    oil_messages_.clear();
+  }
   /// Advances by `duration` seconds.
   void run(double duration, std::vector<SimulatedMeasurement>* out);
 
@@ -119,13 +145,17 @@ class DieCushionSimulator {
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
   double next_sample_[kInputStreamCount] = {0.0, 0.0, 0.0};
   std::int64_t sample_index_[kInputStreamCount] = {0, 0, 0};
+  std::int64_t oil_index_ = 0;
+  std::vector<StreamSample> oil_messages_;
 };
 
 /// Runs `simulator` for `duration` seconds and passes what its sensors sent through `resampler` onto
 /// `grid` (not flushed: a run in several parts keeps one grid); `valve_model` (may be null) adds its spool
-/// to the valve messages as the identification pipeline does.
+/// to the valve messages as the identification pipeline does; `oil` (may be null) takes the oil temperature's
+/// messages and gives the new grid samples their temperature, as the pipeline does.
 void simulateOnGrid(DieCushionSimulator& simulator, double duration, UniformResampler& resampler,
-                    std::vector<GridSample>* grid, ValveMessageSpool* valve_model = nullptr);
+                    std::vector<GridSample>* grid, ValveMessageSpool* valve_model = nullptr,
+                    OilTemperatureInput* oil = nullptr);
 /// The same for one run, flushed: the uniform samples of `duration` seconds of the simulated press, with
 /// the simulated valve's own model spool (a valve known exactly, as after a sweep).
 std::vector<GridSample> simulateGrid(DieCushionSimulator& simulator, double duration,

@@ -24,6 +24,8 @@ class Leakage final : public Effect {
     return info;
   }
   double outflowPerUnit(const HydraulicSignals& s) const override { return s.p; }
+  /// Through the seal's gap: it follows the oil's viscosity (effect oil_temperature).
+  bool laminarFlow() const override { return true; }
 };
 
 }  // namespace die_cushion_ident
