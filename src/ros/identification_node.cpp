@@ -30,6 +30,8 @@ IdentificationNode::IdentificationNode(ros::NodeHandle nh, ros::NodeHandle pnh, 
   publishers_ = std::make_unique<LivePublishers>(pnh_);
   experiments_ = std::make_unique<ValveExperimentServices>(pnh_, mutex_, *live_, *valve_);
   addDiagnostics();
+  thresholds_ = std::make_unique<LiveThresholds>(
+      pnh_, mutex_, &settings_, [this] { live_->setMonitorSettings(liveMonitorSettings(settings_)); });
 
   // The estimates run on stamps, so pressure and position may arrive batched (Nagle: fewer wake-ups and
   // system calls); the valve topic feeds the sweep's safety checks and must not wait.

@@ -16,6 +16,7 @@
 #include "die_cushion_ident/core/monitoring/live_identification.h"
 #include "feed_forward_publisher.h"
 #include "live_publishers.h"
+#include "live_thresholds.h"
 #include "message_conversions.h"
 #include "ros_parameters.h"
 #include "supervised_valve.h"
@@ -78,6 +79,7 @@ class IdentificationNode {
   diagnostic_updater::Updater updater_;
   ros::Time last_diagnostics_;  // when the diagnostics last ran (a later time earlier: the clock jumped back)
   ros::Timer diagnostic_timer_;
+  std::unique_ptr<LiveThresholds> thresholds_;  // dynamic_reconfigure of settings_'s live thresholds
   // Last: shut down first, so that no callback reaches a member already destroyed.
   ros::Subscriber pressure_sub_, position_sub_, valve_sub_, oil_temperature_sub_;
   ros::ServiceServer effects_srv_, reset_srv_;

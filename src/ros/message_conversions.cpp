@@ -132,6 +132,16 @@ ParameterEstimate toParameterEstimateMsg(const HydraulicModel& model, const std:
   return msg;
 }
 
+// The message's phase constants are the core's StrokePhase values: the cast below relies on it.
+static_assert(ModelComparison::PHASE_REST == static_cast<int>(StrokePhase::kRest) &&
+                  ModelComparison::PHASE_IMPACT == static_cast<int>(StrokePhase::kImpact) &&
+                  ModelComparison::PHASE_DRAWING == static_cast<int>(StrokePhase::kDrawing) &&
+                  ModelComparison::PHASE_BOTTOM_HOLD == static_cast<int>(StrokePhase::kBottomHold) &&
+                  ModelComparison::PHASE_RELEASE == static_cast<int>(StrokePhase::kRelease) &&
+                  ModelComparison::PHASE_RETURN == static_cast<int>(StrokePhase::kReturn) &&
+                  kStrokePhaseCount == 6,
+              "msg/ModelComparison.msg's PHASE_* differ from StrokePhase");
+
 ModelComparison toModelComparisonMsg(const GridSample& sample, double modelled_pressure, StrokePhase phase,
                                      double simulation_error_rms, double equation_error_rms,
                                      const ros::Time& stamp) {

@@ -138,19 +138,21 @@ void readModelAndJoint(const ros::NodeHandle& pnh, IdentificationConfig* config,
   readStrings(pnh, "custom_effects", &config->custom_effects, problems);
 }
 
+void addInvalid(std::vector<std::string>* problems, const char* key, double v, const char* allowed) {
+  std::ostringstream s;
+  s << "~" << key << " = " << v << " is invalid: allowed " << allowed;
+  problems->push_back(s.str());
+}
+
 void checkNodeSettings(const ros::NodeHandle& pnh, const NodeSettings& settings,
                        std::vector<std::string>* problems) {
   const auto invalid = [&](const char* key, double v, const char* allowed) {
-    std::ostringstream s;
-    s << "~" << key << " = " << v << " is invalid: allowed " << allowed;
-    problems->push_back(s.str());
+    addInvalid(problems, key, v, allowed);
   };
   const auto positive = [&](const char* key, double v) {
     if (!(std::isfinite(v) && v > 0.0)) invalid(key, v, "> 0");
   };
-  positive("adequacy_warn_error", settings.adequacy_warn_error);
-  positive("adequacy_error_error", settings.adequacy_error_error);
-  positive("effect_ranking_period", settings.effect_ranking_period);
+  for (const auto& p : liveThresholdProblems(settings)) problems->push_back(p);
   positive("feed_forward_max_age", settings.feed_forward_max_age);
   positive("feed_forward_slew_rate", settings.feed_forward_slew_rate);
   positive("feed_forward_parameter_rate", settings.feed_forward_parameter_rate);
@@ -167,12 +169,24 @@ void checkNodeSettings(const ros::NodeHandle& pnh, const NodeSettings& settings,
   if (!(settings.survey_seconds >= 5.0 && settings.survey_seconds <= 600.0)) {
     invalid("survey_seconds", settings.survey_seconds, "[5, 600] s");
   }
-  if (!(settings.effect_ranking_window >= 5.0 && settings.effect_ranking_window <= 3600.0)) {
-    invalid("effect_ranking_window", settings.effect_ranking_window, "[5, 3600] s");
-  }
 }
 
 }  // namespace
+
+std::vector<std::string> liveThresholdProblems(const NodeSettings& settings) {
+  // The same ranges as cfg/LiveThresholds.cfg's (test_parameter_files compares them).
+  std::vector<std::string> problems;
+  const auto positive = [&](const char* key, double v) {
+    if (!(std::isfinite(v) && v > 0.0)) addInvalid(&problems, key, v, "> 0");
+  };
+  positive("adequacy_warn_error", settings.adequacy_warn_error);
+  positive("adequacy_error_error", settings.adequacy_error_error);
+  positive("effect_ranking_period", settings.effect_ranking_period);
+  if (!(settings.effect_ranking_window >= 5.0 && settings.effect_ranking_window <= 3600.0)) {
+    addInvalid(&problems, "effect_ranking_window", settings.effect_ranking_window, "[5, 3600] s");
+  }
+  return problems;
+}
 
 std::vector<std::string> loadParameters(const ros::NodeHandle& pnh, IdentificationConfig* config,
                                         SweepLimits* limits, NodeSettings* settings) {
@@ -210,11 +224,17 @@ FeedForwardPublisher::Settings feedForwardSettings(const NodeSettings& settings,
   return ff;
 }
 
+LiveMonitorSettings liveMonitorSettings(const NodeSettings& settings) {
+  LiveMonitorSettings monitor;
+  monitor.ranking_window = settings.effect_ranking_window;
+  monitor.ranking_period = settings.effect_ranking_period;
+  return monitor;
+}
+
 LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settings,
                                                       const ros::NodeHandle& pnh) {
   LiveIdentificationSettings live;
-  live.monitor.ranking_window = settings.effect_ranking_window;
-  live.monitor.ranking_period = settings.effect_ranking_period;
+  live.monitor = liveMonitorSettings(settings);
   live.choose_settings = settings.choose_settings;
   live.survey_seconds = settings.survey_seconds;
   live.configured = configuredKeys(pnh);

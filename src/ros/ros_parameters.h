@@ -43,6 +43,8 @@ FeedForwardOutputLimits feedForwardOutputLimits(const NodeSettings& settings, co
 /// The feed-forward's inverse: its set-point stream and interlock limits.
 FeedForwardPublisher::Settings feedForwardSettings(const NodeSettings& settings, const SweepLimits& limits);
 
+/// The live ranking's window and period from the node's settings.
+LiveMonitorSettings liveMonitorSettings(const NodeSettings& settings);
 /// The configuration keys among the private parameters (kept and judged by the settings survey).
 std::set<std::string> configuredKeys(const ros::NodeHandle& pnh);
 /// The live identification's settings from the node's (and which keys the user configured).
@@ -53,6 +55,10 @@ LiveIdentificationSettings liveIdentificationSettings(const NodeSettings& settin
 /// inside parentheses stay: a custom effect may hold max(p, 0)). Problems are appended to `problems`.
 void readStrings(const ros::NodeHandle& pnh, const std::string& key, std::vector<std::string>* out,
                  std::vector<std::string>* problems);
+
+/// What is wrong with the live thresholds (adequacy_*_error, effect_ranking_*), as "~name = value is invalid:
+/// allowed ..."; empty when they are usable. Checked at start-up and on every dynamic_reconfigure request.
+std::vector<std::string> liveThresholdProblems(const NodeSettings& settings);
 
 /// Reads the private parameters (same names as the analyze_bag config keys) into `config`, `limits` and
 /// `settings`. Returns every problem as "~name = value is invalid: allowed ..."; empty when all are usable.

@@ -4,6 +4,9 @@
 
 #include <cmath>
 
+#include "die_cushion_ident/EffectRanking.h"
+#include "die_cushion_ident/core/analysis/verdict.h"
+#include "die_cushion_ident/core/valve/valve_sweep.h"
 #include "message_conversions.h"
 
 using namespace die_cushion_ident;
@@ -126,4 +129,21 @@ TEST(MessageConversions, TheEstimateNamesEveryParameterWithItsUnit) {
   EXPECT_EQ(msg.effects, std::vector<std::string>{"leakage"});
   EXPECT_EQ(msg.bulk_modulus, 1.4e9);
   EXPECT_EQ(msg.dead_volume_std, 1e-4);
+}
+
+// The names the node publishes in ~effect_ranking's verdicts and ~frequency_response's state are the
+// constants the messages declare (a subscriber compares against those); the phase numbers are checked at
+// compile time.
+TEST(MessageConversions, PublishedNamesAreTheMessagesConstants) {
+  EXPECT_EQ(verdictName(Verdict::kMissing), EffectRanking::VERDICT_MISSING);
+  EXPECT_EQ(verdictName(Verdict::kNotNeeded), EffectRanking::VERDICT_NOT_NEEDED);
+  EXPECT_EQ(verdictName(Verdict::kInconclusive), EffectRanking::VERDICT_INCONCLUSIVE);
+  EXPECT_EQ(sweepStateName(ValveSweep::State::kRunning), FrequencyResponse::STATE_RUNNING);
+  EXPECT_EQ(sweepStateName(ValveSweep::State::kFinished), FrequencyResponse::STATE_FINISHED);
+  EXPECT_EQ(sweepStateName(ValveSweep::State::kAborted), FrequencyResponse::STATE_ABORTED);
+  GridSample g;
+  const ModelComparison drawing =
+      toModelComparisonMsg(g, 0.0, StrokePhase::kDrawing, 0.0, 0.0, ros::Time(1.0));
+  EXPECT_EQ(drawing.phase, ModelComparison::PHASE_DRAWING);
+  EXPECT_EQ(drawing.phase_name, "drawing");
 }

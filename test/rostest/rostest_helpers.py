@@ -88,6 +88,11 @@ class Diagnostics:
         with self._lock:
             return {prefix for prefix, _ in self._latest}
 
+    def names(self, ns):
+        """The names of every status the identification in namespace `ns` has published."""
+        with self._lock:
+            return {name for prefix, name in self._latest if prefix == ns.strip("/")}
+
 
 def values_of(status):
     """A status's key/values as a dict."""

@@ -1,11 +1,14 @@
 #!/usr/bin/python3
 """Live identification on ROS: estimates converge to the simulator's truth, diagnostics report the right
-levels, set_effects changes the model, unsafe and invalid sweep requests are refused."""
+levels and the aggregator groups them (params/diagnostics.yaml), a live threshold changed with
+dynamic_reconfigure takes effect at once, set_effects changes the model, unsafe and invalid sweep requests are
+refused."""
 import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from dynamic_reconfigure.client import Client
 
 from die_cushion_ident.msg import EffectRanking, ModelComparison, ParameterEstimate
 from die_cushion_ident.srv import SetEffects, StartSweep
@@ -35,6 +38,7 @@ class LiveIdentification(unittest.TestCase):
         rospy.init_node("test_live_identification")
         cls.truth = Latest("/die_cushion/simulator/truth", ParameterEstimate)
         cls.diagnostics = Diagnostics()
+        cls.aggregated = Latest("/diagnostics_agg", DiagnosticArray)
         cls.targets = [Target(ns) for ns in NAMESPACES]
 
     def diagnostic(self, target, name):
@@ -71,6 +75,51 @@ class LiveIdentification(unittest.TestCase):
         self.assertIn("die_cushion/ident", prefixes)
         self.assertIn("die_cushion/ident_node", prefixes)
         self.assertNotIn("die_cushion/manager", prefixes)
+
+    # Where params/diagnostics.yaml puts each status of the identification (doc/ros_interface.md, "Diagnostics").
+    ANALYZERS = {"input pressure": "Inputs", "input position": "Inputs", "input valve": "Inputs",
+                 "input timing": "Inputs", "estimator": "Estimation", "settings": "Estimation",
+                 "model adequacy": "Model adequacy", "valve model": "Valve experiments",
+                 "step test": "Valve experiments", "valve experiments": "Valve experiments",
+                 "feed-forward": "Feed-forward"}
+
+    def test_1a_the_aggregator_groups_every_status_under_its_analyzer(self):
+        def aggregated_names():
+            msg = self.aggregated.get()
+            return {status.name for status in msg.status} if msg else set()
+
+        for target in self.targets:
+            # Every status the identification publishes is one the yaml groups (a new one fails here first).
+            self.assertEqual(self.diagnostics.names(target.ns), set(self.ANALYZERS), target.ns)
+            # The aggregator writes a status "<path>/<status name, slashes as spaces>".
+            shown = target.ns.strip("/").replace("/", " ")
+            for name, analyzer in self.ANALYZERS.items():
+                path = "/Die cushion/%s/%s: %s" % (analyzer, shown, name)
+                wait_for(lambda: path in aggregated_names(), 10, path)
+            strays = [n for n in aggregated_names() if shown + ":" in n and not n.startswith("/Die cushion/")]
+            self.assertEqual(strays, [], "statuses left outside the analyzers (in Other)")
+
+    def test_1b_a_live_threshold_changed_with_dynamic_reconfigure_takes_effect_at_once(self):
+        for target in self.targets:
+            client = Client(target.ns.rstrip("/"), timeout=10)
+            live = {d["name"] for d in client.get_parameter_descriptions()}
+            self.assertEqual(live, {"adequacy_warn_error", "adequacy_error_error", "effect_ranking_window",
+                                    "effect_ranking_period"}, "the live thresholds, and no limit of the valve's")
+            def adequacy():
+                return self.diagnostic(target, "model adequacy")
+
+            self.assertEqual(adequacy().level, DiagnosticStatus.OK, adequacy().message)
+            error = target.comparison.get().simulation_error_rms
+            lowered = client.update_configuration({"adequacy_warn_error": error / 4})
+            self.assertAlmostEqual(lowered["adequacy_warn_error"], error / 4)
+            wait_for(lambda: adequacy().level == DiagnosticStatus.WARN, 5,
+                     "%smodel adequacy to warn above %.2f bar" % (target.ns, error / 4e5))
+            self.assertIn("misses the pressure", adequacy().message)
+            # A value the node refuses leaves the thresholds as they are, and the server says so.
+            refused = client.update_configuration({"adequacy_warn_error": 0.0})
+            self.assertAlmostEqual(refused["adequacy_warn_error"], error / 4)
+            client.update_configuration({"adequacy_warn_error": 3e5})
+            wait_for(lambda: adequacy().level == DiagnosticStatus.OK, 5, target.ns + "model adequacy OK again")
 
     def test_2_unsafe_and_invalid_sweeps_are_refused(self):
         for target in self.targets:

@@ -10,8 +10,10 @@
 #include <string>
 
 #include "analysis_config.h"
+#include "die_cushion_ident/LiveThresholdsConfig.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
+#include "live_thresholds.h"
 #include "ros_parameters.h"
 
 namespace die_cushion_ident {
@@ -94,6 +96,63 @@ TEST(ParameterFiles, NodeSettingsAndSweepLimitsAreTheCodes) {
   // Every key the file sets is one the node reads (a typo would be a silently ignored parameter).
   std::size_t known = sweepLimitKeys().size() + numbers.size() + 2;
   EXPECT_EQ(shown.size(), known) << "a key in " << path << " the test does not know";
+}
+
+// cfg/LiveThresholds.cfg repeats the node's defaults, names and ranges for dynamic_reconfigure (which clamps
+// to its own ranges before the node sees a value): a drift would start the server from other values than the
+// node's, or clamp a value the node allows.
+TEST(ParameterFiles, LiveThresholdsReconfigureTheNodesOwnSettingsWithinItsRanges) {
+  const LiveThresholdsConfig defaults = LiveThresholdsConfig::__getDefault__();
+  const LiveThresholdsConfig lowest = LiveThresholdsConfig::__getMin__();
+  const LiveThresholdsConfig highest = LiveThresholdsConfig::__getMax__();
+  const NodeSettings settings;
+  EXPECT_EQ(defaults.adequacy_warn_error, settings.adequacy_warn_error);
+  EXPECT_EQ(defaults.adequacy_error_error, settings.adequacy_error_error);
+  EXPECT_EQ(defaults.effect_ranking_window, settings.effect_ranking_window);
+  EXPECT_EQ(defaults.effect_ranking_period, settings.effect_ranking_period);
+  // The window's bounds are the node's own, both allowed; the others are positive and unbounded above.
+  NodeSettings at_bounds = settings;
+  at_bounds.effect_ranking_window = lowest.effect_ranking_window;
+  EXPECT_TRUE(liveThresholdProblems(at_bounds).empty()) << liveThresholdProblems(at_bounds).front();
+  at_bounds.effect_ranking_window = highest.effect_ranking_window;
+  EXPECT_TRUE(liveThresholdProblems(at_bounds).empty()) << liveThresholdProblems(at_bounds).front();
+  at_bounds.effect_ranking_window = std::nextafter(highest.effect_ranking_window, 1e9);
+  EXPECT_FALSE(liveThresholdProblems(at_bounds).empty());
+  for (const double bound :
+       {lowest.adequacy_warn_error, lowest.adequacy_error_error, lowest.effect_ranking_period}) {
+    EXPECT_EQ(bound, 0.0) << "the node allows every positive value";
+  }
+  for (const double bound :
+       {highest.adequacy_warn_error, highest.adequacy_error_error, highest.effect_ranking_period}) {
+    EXPECT_TRUE(std::isinf(bound)) << "the node allows every positive value";
+  }
+  // Each is a parameter of the node, shown in params/node.yaml.
+  const std::map<std::string, YAML::Node> shown = shownValues(kParams + "/node.yaml");
+  for (const auto& parameter : LiveThresholdsConfig::__getParamDescriptions__()) {
+    EXPECT_TRUE(shown.count(parameter->name)) << parameter->name << " is no parameter of the node";
+  }
+}
+
+// A dynamic_reconfigure request is applied whole or not at all: a value the node would refuse at start-up
+// keeps every threshold as it was, and the server is told the values that stay.
+TEST(ParameterFiles, ALiveThresholdRequestIsAppliedOnlyWhenTheNodeAcceptsIt) {
+  NodeSettings settings;
+  LiveThresholdsConfig config = LiveThresholdsConfig::__getDefault__();
+  config.adequacy_warn_error = 1.5e5;
+  config.effect_ranking_period = 2.0;
+  EXPECT_TRUE(applyLiveThresholds(&config, &settings).empty());
+  EXPECT_EQ(settings.adequacy_warn_error, 1.5e5);
+  EXPECT_EQ(settings.effect_ranking_period, 2.0);
+
+  config.adequacy_error_error = 7e5;
+  config.effect_ranking_window = 2.0;  // below the 5 s the node allows
+  const std::vector<std::string> problems = applyLiveThresholds(&config, &settings);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_NE(problems.front().find("effect_ranking_window = 2"), std::string::npos) << problems.front();
+  EXPECT_EQ(settings.adequacy_error_error, NodeSettings().adequacy_error_error) << "nothing of it applied";
+  EXPECT_EQ(config.adequacy_error_error, settings.adequacy_error_error) << "the server shows what holds";
+  EXPECT_EQ(config.effect_ranking_window, settings.effect_ranking_window);
+  EXPECT_EQ(config.adequacy_warn_error, 1.5e5);
 }
 
 }  // namespace

@@ -18,14 +18,18 @@ using testing::randomPlant;
 
 /// A plant fed through a pipeline whose grid drives a monitor, as the node does.
 struct LivePlant {
-  LivePlant(const SimulatorConfig& plant, const std::vector<std::string>& model_effects, LiveMonitorSettings settings)
-      : simulator(plant), config(configFor(plant, model_effects)), pipeline(config),
+  LivePlant(const SimulatorConfig& plant, const std::vector<std::string>& model_effects,
+            LiveMonitorSettings settings)
+      : simulator(plant),
+        config(configFor(plant, model_effects)),
+        pipeline(config),
         monitor(config, pipeline.identifier().model(), settings) {
     pipeline.setGridCallback([this](const GridSample& g, const HydraulicIdentifier& identifier) {
       if (auto r = monitor.addSample(g, identifier)) rankings.push_back(*r);
     });
   }
-  /// Runs the plant; each topic's stamps are shifted by its `stamp_offsets` (a topic stamped by another clock).
+  /// Runs the plant; each topic's stamps are shifted by its `stamp_offsets` (a topic stamped by another
+  /// clock).
   void run(double seconds) {
     testing::feed(simulator, seconds, stamp_offsets,
                   [&](InputStream stream, const StreamSample& sample) { pipeline.push(stream, sample); });
@@ -54,7 +58,8 @@ TEST(LiveModelMonitor, FollowsTheRightModelWithinTheNoiseAndNamesTheWorstPhaseOf
   ASSERT_GE(right.monitor.comparedSamples(), LiveModelMonitor::kSamplesBeforeVerdict);
   ASSERT_GE(wrong.monitor.comparedSamples(), LiveModelMonitor::kSamplesBeforeVerdict);
   EXPECT_STREQ(right.monitor.comparisonBlocker(), "");
-  // The right model runs freely within about a bar of 0.2 bar noise; the missing leakage costs several times more.
+  // The right model runs freely within about a bar of 0.2 bar noise; the missing leakage costs several times
+  // more.
   EXPECT_LT(right.monitor.simulationErrorRms(), 1.5e5);
   EXPECT_GT(wrong.monitor.simulationErrorRms(), 2.0 * right.monitor.simulationErrorRms());
   const HealthReport ok = adequacyHealth(right.monitor, 0.0, 5e5, 20e5);
@@ -68,7 +73,8 @@ TEST(LiveModelMonitor, FollowsTheRightModelWithinTheNoiseAndNamesTheWorstPhaseOf
   EXPECT_EQ(adequacyHealth(wrong.monitor, 0.0, 0.25 * e, 0.5 * e).level, HealthLevel::kError);
   // Every phase's error is reported.
   for (int i = 0; i < kStrokePhaseCount; ++i) {
-    const std::string key = std::string("simulation error rms in ") + strokePhaseName(static_cast<StrokePhase>(i)) + " [bar]";
+    const std::string key =
+        std::string("simulation error rms in ") + strokePhaseName(static_cast<StrokePhase>(i)) + " [bar]";
     EXPECT_FALSE(warn.value(key).empty()) << key;
   }
 }
@@ -138,6 +144,30 @@ TEST(LiveModelMonitor, RanksTheWindowOnItsOwnThreadAndDropsARankingOfAnOldModel)
   waitForRanking(&live);
   waitForRanking(&live);
   for (std::size_t i = before; i < live.rankings.size(); ++i) EXPECT_EQ(live.rankings[i].cycles, 0);
+}
+
+// The node's live reconfiguration (dynamic_reconfigure) changes the window and the period while samples flow:
+// both must hold from the next sample, without a restart that would throw the comparison away.
+TEST(LiveModelMonitor, NewRankingSettingsHoldFromTheNextSampleWithoutARestart) {
+  LivePlant live(randomPlant(5, {}), {},
+                 noRanking());  // one ranking at the first sample, then none for 1e9 s
+  live.run(6.0);
+  waitForRanking(&live);
+  const std::size_t rankings = live.rankings.size();
+  const double dt = live.config.resampler.sample_period;
+  EXPECT_GT(static_cast<double>(live.monitor.window().size()), 5.0 / dt) << "6 s kept of a 10 s window";
+
+  LiveMonitorSettings faster;
+  faster.ranking_window = 4.0;
+  faster.ranking_period = 1.0;
+  live.monitor.setSettings(faster);
+  live.run(0.1);
+  const double kept = static_cast<double>(live.monitor.window().size());
+  EXPECT_LE(kept, 4.0 / dt + 1.0) << "cut to the new window at once";
+  EXPECT_GT(kept, 3.0 / dt) << "the window's samples kept (a restart would have left 0.1 s)";
+  live.run(1.5);  // beyond the new period since the last ranking (about 6 s ago)
+  EXPECT_TRUE(live.monitor.rankingRunning() || live.rankings.size() > rankings)
+      << "a ranking on the new period, though the old one (1e9 s) was not due";
 }
 
 TEST(LiveModelMonitor, EstimatesTheTopicsClockOffsetOnceAndHandsItOverOnce) {
@@ -301,7 +331,8 @@ HydraulicEstimate estimateFor(const HydraulicModel& model, std::uint64_t updates
 TEST(LiveDiagnostics, EstimatesAreJudgedAgainstEachParametersOwnPhysicalRange) {
   const HydraulicModel model = HydraulicModel::fromNames(CylinderGeometry(), {"leakage"}, {});
   EXPECT_EQ(estimatorHealth(model, estimateFor(model, 10)).level, HealthLevel::kWarn);
-  EXPECT_NE(estimatorHealth(model, estimateFor(model, 10)).message.find("waiting for excitation"), std::string::npos);
+  EXPECT_NE(estimatorHealth(model, estimateFor(model, 10)).message.find("waiting for excitation"),
+            std::string::npos);
   const HealthReport converged = estimatorHealth(model, estimateFor(model, 500));
   EXPECT_EQ(converged.level, HealthLevel::kOk) << converged.message;
   EXPECT_EQ(converged.message, "converged");
@@ -333,13 +364,16 @@ TEST(LiveDiagnostics, EstimatesAreJudgedAgainstEachParametersOwnPhysicalRange) {
   EXPECT_EQ(estimatorHealth(model, nan).message, "implausible estimate: dead_volume is not finite");
 
   HydraulicEstimate loose = estimateFor(model, 500);
-  loose.parameters[HydraulicModel::kDeadVolume].std = 0.5 * loose.parameters[HydraulicModel::kDeadVolume].value;
-  EXPECT_NE(estimatorHealth(model, loose).message.find("converging: a parameter still has 50 %"), std::string::npos);
+  loose.parameters[HydraulicModel::kDeadVolume].std =
+      0.5 * loose.parameters[HydraulicModel::kDeadVolume].value;
+  EXPECT_NE(estimatorHealth(model, loose).message.find("converging: a parameter still has 50 %"),
+            std::string::npos);
 }
 
 TEST(LiveDiagnostics, StepTestWarnsWhenTheSamplingCannotResolveThePressureBuildUp) {
   EXPECT_EQ(stepTestHealth(std::nullopt, "no step test run", false, 0.002).level, HealthLevel::kOk);
-  EXPECT_EQ(stepTestHealth(std::nullopt, "aborted: the cushion moved", true, 0.002).level, HealthLevel::kWarn);
+  EXPECT_EQ(stepTestHealth(std::nullopt, "aborted: the cushion moved", true, 0.002).level,
+            HealthLevel::kWarn);
   StepResponse response;
   response.t63 = 0.015;
   EXPECT_EQ(stepTestHealth(response, "t63 15.0 ms", false, 0.001).level, HealthLevel::kOk);

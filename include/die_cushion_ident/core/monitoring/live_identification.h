@@ -92,6 +92,11 @@ class LiveIdentification {
   /// The valve identified by a sweep: predicts an unmeasured spool from now on, and the survey's valve
   /// model from the operation no longer replaces it.
   void setValveModel(const ServoValveParameters& valve);
+  /// The live ranking's window and period from now on, kept across rebuilds (LiveModelMonitor::setSettings).
+  void setMonitorSettings(const LiveMonitorSettings& monitor) {
+    settings_.monitor = monitor;
+    monitor_->setSettings(monitor);
+  }
 
   const IdentificationConfig& config() const { return config_; }
   const IdentificationPipeline& pipeline() const { return *pipeline_; }
@@ -129,7 +134,7 @@ class LiveIdentification {
   GridCallback on_grid_;
   StepCallback on_step_;
   std::vector<LiveEvent> events_;
-  MessageNoise pressure_noise_;  // the sensor's, for grids finer than its messages
+  MessageNoise pressure_noise_;   // the sensor's, for grids finer than its messages
   EstimateScatter scatter_{1.0};  // of the converged live estimate, over kScatterHorizon
 
   std::unique_ptr<SettingsFromRecording> survey_;  // while messages are kept

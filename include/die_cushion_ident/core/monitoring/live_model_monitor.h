@@ -10,18 +10,19 @@
 
 #include "die_cushion_ident/core/analysis/effect_ranking.h"
 #include "die_cushion_ident/core/analysis/free_run_pressure.h"
-#include "die_cushion_ident/core/model/stroke_phase.h"
 #include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
+#include "die_cushion_ident/core/model/stroke_phase.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 namespace die_cushion_ident {
 
 /// How the live model comparison judges and how often it ranks the effect library.
 struct LiveMonitorSettings {
-  // The node's defaults (~effect_ranking_window, ~effect_ranking_period), so that README, node and core agree.
+  // The node's defaults (~effect_ranking_window, ~effect_ranking_period), so that README, node and core
+  // agree.
   double ranking_window = 30.0;  ///< [s] grid samples kept for the ranking (and the step test's timing)
   double ranking_period = 10.0;  ///< [s] of grid time between rankings
 };
@@ -46,7 +47,8 @@ class LiveModelMonitor {
   /// Compared samples before the error is judged (1 s of the 2 ms grid).
   static constexpr std::uint64_t kSamplesBeforeVerdict = 500;
 
-  LiveModelMonitor(const IdentificationConfig& config, const HydraulicModel& model, LiveMonitorSettings settings);
+  LiveModelMonitor(const IdentificationConfig& config, const HydraulicModel& model,
+                   LiveMonitorSettings settings);
   /// Waits for a running ranking (its result is dropped).
   ~LiveModelMonitor();
 
@@ -55,6 +57,11 @@ class LiveModelMonitor {
   void restart(const IdentificationConfig& config, const HydraulicModel& model);
   /// The stamps jumped (a bag restarted): the free run starts again at the measured pressure.
   void resync();
+  /// The ranking's window and period from the next grid sample on (the node reconfigured live): the window is
+  /// cut to, or grows to, the new length; the next ranking is due the new period after the last one. The
+  /// comparison, the window's samples and a running ranking go on.
+  void setSettings(const LiveMonitorSettings& settings) { settings_ = settings; }
+  const LiveMonitorSettings& settings() const { return settings_; }
   /// [Pa] the pressure sensor's noise from its messages, for the rankings where the grid lies between them
   /// (IdentificationConfig::grid_pressure_noise; 0: estimated on the grid).
   void setGridPressureNoise(double sigma) { config_.grid_pressure_noise = sigma; }
@@ -67,8 +74,8 @@ class LiveModelMonitor {
   const GridSample& lastSample() const { return last_; }
   double modelledPressure() const { return modelled_pressure_; }  ///< [Pa], NaN while the model cannot run
   StrokePhase phase() const { return phase_; }
-  double simulationErrorRms() const;                      ///< [Pa], over about one press cycle
-  double phaseErrorRms(StrokePhase phase) const;          ///< [Pa], same weighting, per phase
+  double simulationErrorRms() const;              ///< [Pa], over about one press cycle
+  double phaseErrorRms(StrokePhase phase) const;  ///< [Pa], same weighting, per phase
   std::uint64_t comparedSamples() const { return compared_; }
   std::uint64_t identifierUpdates() const { return updates_; }
   bool estimatorStarted() const { return updates_ >= kUpdatesBeforeComparison; }
