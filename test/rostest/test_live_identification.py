@@ -78,7 +78,7 @@ class LiveIdentification(unittest.TestCase):
 
     # Where params/diagnostics.yaml puts each status of the identification (doc/ros_interface.md, "Diagnostics").
     ANALYZERS = {"input pressure": "Inputs", "input position": "Inputs", "input valve": "Inputs",
-                 "input timing": "Inputs", "estimator": "Estimation", "settings": "Estimation",
+                 "input timing": "Inputs", "input oil_temperature": "Inputs", "estimator": "Estimation", "settings": "Estimation",
                  "model adequacy": "Model adequacy", "valve model": "Valve experiments",
                  "step test": "Valve experiments", "valve experiments": "Valve experiments",
                  "feed-forward": "Feed-forward"}
