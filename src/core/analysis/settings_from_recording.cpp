@@ -19,6 +19,7 @@
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
+#include "die_cushion_ident/core/valve/step_response.h"
 
 namespace die_cushion_ident {
 
@@ -589,6 +590,8 @@ struct StudyOutcome {
   bool studied = false;   // the configured model's fit was plausible, and its free run was studied
   bool resolved = false;  // a period's free run changed by less than the allowed share when it halved
   std::string implausible;  // the first implausible parameter, where the fit was
+  bool no_press_stroke = false;  // the survey holds no press stroke (a step test or sweep at rest)
+  double step_t63 = 0.0;         // [s] the first step test's t63 in such a survey (0: none found)
   double grid_error = 0.0;  // [Pa] the grid's own resolution error (the topics' rates not in it)
 };
 
@@ -621,6 +624,7 @@ class ResolutionStudy {
     parallelFor(2, jobs_, [&](std::size_t i) { level(k + i, i == 0 ? model_ : own); });
   }
   void identifyAtTheFinestPeriod(StudyOutcome& outcome);
+  void chooseForTheStepTest(double configured_period, StudyOutcome& outcome);
   std::size_t halveUntilSettled(double allowed_change, bool* resolved);
   void judgeTheFinestPeriod(std::size_t chosen, double allowed_change, double noise, double finest_interval,
                             bool* resolved);
@@ -661,7 +665,35 @@ void ResolutionStudy::identifyAtTheFinestPeriod(StudyOutcome& outcome) {
       fit_.updates > 0 ? implausibleParameters(model_, fit_, 3.0, &uncertain) : std::vector<std::string>();
   if (!implausible.empty()) outcome.implausible = implausible.front();
   outcome.studied = fit_.updates > 0 && fit_.values().allFinite() && implausible.empty();
+  // A step test or sweep at rest cannot tell the bulk modulus from the dead volume: its fit says nothing of
+  // the model, and the finest period (taken where a press's fit is implausible) only adds the derived
+  // velocity's noise. Such a survey is not studied; the configured or paper period is kept.
+  const Level& finest = levels_.back();
+  if (!outcome.studied &&
+      holdsNoPressStroke(finest.grid, finest.strokes, choice_.config.geometry.stroke_length)) {
+    outcome.no_press_stroke = true;
+    outcome.implausible.clear();
+  }
   theta_ = !outcome.studied ? ParameterVector() : refined ? refined->theta : fit_.values();
+}
+
+// A survey at rest that holds a valve step test: the pressure's t63, timed on the finest grid, sets the
+// period (at most a tenth of it, the paper's rule, as step_response's recommended_max_sampling_time): the
+// coarsest studied period within it, else the finest. A fast press's 19 ms t63 on the paper's 2 ms was
+// "sampling too coarse"; the configured period stays where it is fine enough.
+void ResolutionStudy::chooseForTheStepTest(double configured_period, StudyOutcome& outcome) {
+  const std::vector<StepResponse> steps = findStepResponses(levels_.back().grid);
+  if (steps.empty()) return;
+  outcome.step_t63 = steps.front().t63;
+  const double most = steps.front().recommendedMaxSamplingTime();
+  if (configured_period <= most) return;
+  outcome.chosen_period = periods_.back();
+  for (double period : periods_) {
+    if (period <= most) {
+      outcome.chosen_period = period;
+      break;
+    }
+  }
 }
 
 // From 2 ms down, halving, until the free run stops changing or the recording's rate is reached; the
@@ -746,6 +778,7 @@ StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double fi
   if (!outcome.studied) {
     outcome.chosen_period = outcome.implausible.empty() ? configured_period : periods_.back();
     choice_.resolution_error = std::numeric_limits<double>::quiet_NaN();
+    if (outcome.no_press_stroke) chooseForTheStepTest(configured_period, outcome);
     return outcome;
   }
   const std::size_t chosen = halveUntilSettled(allowed_change, &outcome.resolved);
@@ -776,6 +809,17 @@ std::string periodReason(const StudyOutcome& outcome, const SettingsChoice& choi
                      "model's fit is implausible (",
                      1e3 * finest_interval) +
            outcome.implausible + "), so its free run cannot measure the grid's error";
+  }
+  if (outcome.no_press_stroke) {
+    return std::string(
+               outcome.step_t63 > 0.0
+                   ? formatted("within a tenth of the step test's t63 (%.3g ms; the configured or paper "
+                               "value where it is): ",
+                               1e3 * outcome.step_t63)
+                   : "the configured or paper value: ") +
+           "the survey holds no press stroke (a step test or valve sweep with the cushion at rest), so no "
+           "model "
+           "to study the grid's error with";
   }
   if (!outcome.studied) return "the paper's value: the survey holds nothing to identify";
   if (outcome.resolved) {
