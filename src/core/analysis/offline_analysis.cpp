@@ -563,7 +563,7 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
     r.ranking = rankEffects(grid_.grid(), r.strokes, config_, ranking_options);
     if (r.ranking.residual_unexplained || always_propose_) {
       tell("searching for a formula for the error the library leaves");
-      addFormulaProposals(grid_.grid(), r.strokes, config_, &r.ranking);
+      addFormulaProposals(grid_.grid(), r.strokes, config_, &r.ranking, ranking_options);
     }
     r.ranking.recommended_held_out.predictions.reset();  // the base's free runs: 7 MB an hour, no longer read
     if (r.strokes.cycles == 0) {
