@@ -808,8 +808,8 @@ std::string periodReason(const StudyOutcome& outcome, const SettingsChoice& choi
             ? std::string("the paper's value")
             : formatted("the finest the recording supports (messages every %.3g ms)", 1e3 * finest_interval);
     return period +
-           ": the survey holds no press stroke (a step test or valve sweep with the cushion at rest), so no "
-           "model to study the grid's error with";
+           ": the survey holds no press stroke (a step test or valve sweep with the cushion at rest), nothing to "
+           "identify a model from and study the grid's error with";
   }
   if (!outcome.implausible.empty()) {
     return formatted("the finest the recording supports (messages every %.3g ms), unstudied: the configured "
