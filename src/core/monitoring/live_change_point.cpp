@@ -24,7 +24,7 @@ void LiveChangePoint::restart() {
   segmenter_ = StrokeSegmenter();
   last_complete_ = false;
   check_pending_ = false;
-  resynced_ = false;
+  samples_this_run_ = 0;
   impact_stamps_.clear();
   first_impact_number_ = 0;
   run_start_ = std::numeric_limits<double>::quiet_NaN();
@@ -39,16 +39,15 @@ void LiveChangePoint::resync() {
   check_pending_ = false;
   first_impact_number_ += static_cast<long>(impact_stamps_.size());
   impact_stamps_.clear();
-  resynced_ = true;
+  samples_this_run_ = 0;
+  window_start_ = -std::numeric_limits<double>::infinity();
+  onset_.reset();
 }
 
 std::optional<LiveOnset> LiveChangePoint::addSample(const GridSample& g, const std::deque<GridSample>& window,
                                                     const IdentificationConfig& config) {
   if (!std::isfinite(run_start_)) run_start_ = g.t;
-  if (resynced_) {
-    window_start_ = g.t;
-    resynced_ = false;
-  }
+  ++samples_this_run_;
   const StrokeSegmenter::Step step = segmenter_.push(g);
   if (step.cycle_start) impact_stamps_.push_back(g.t);
   // Impacts that left the window are no cycle of a check any more; their numbers go on counting.
@@ -70,8 +69,9 @@ std::optional<LiveOnset> LiveChangePoint::addSample(const GridSample& g, const s
 
 void LiveChangePoint::startCheck(const std::deque<GridSample>& window, const IdentificationConfig& config) {
   std::vector<GridSample> grid;
-  for (const GridSample& s : window) {
-    if (s.t >= window_start_) grid.push_back(s);
+  const std::size_t first = window.size() > samples_this_run_ ? window.size() - samples_this_run_ : 0;
+  for (std::size_t i = first; i < window.size(); ++i) {
+    if (window[i].t >= window_start_) grid.push_back(window[i]);
   }
   std::vector<double> stamps(impact_stamps_.begin(), impact_stamps_.end());
   job_ = std::async(std::launch::async, [grid = std::move(grid), config, stamps = std::move(stamps),
@@ -114,9 +114,10 @@ std::optional<LiveOnset> LiveChangePoint::check(const std::vector<GridSample>& g
       nearest = i;
   }
   if (!(std::abs(impact_stamps[nearest] - first_stamp) <= kSameImpact)) return std::nullopt;
-  const std::optional<EffectOnset> onset = findEffectOnset(
-      grid, strokes, config, kSignificance, 1, 60, 1, run_start, first_number + static_cast<int>(nearest));
-  if (!onset) return std::nullopt;
+  const int first_cycle = first_number + static_cast<int>(nearest);
+  const std::optional<EffectOnset> onset =
+      findEffectOnset(grid, strokes, config, kSignificance, 1, 60, 1, run_start, first_cycle);
+  if (!onset || strokes.cycles - (onset->cycle - first_cycle) > kRecentCycles) return std::nullopt;
   LiveOnset live;
   live.onset = *onset;
   live.stamp = run_start + onset->time;

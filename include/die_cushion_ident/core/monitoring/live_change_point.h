@@ -34,8 +34,16 @@ struct LiveOnset {
 /// of the window, one at a time: a check due while one runs waits for the next completed cycle.
 class LiveChangePoint {
  public:
-  /// The offline analysis's significance (kVariationSignificance), per check over every split and effect.
-  static constexpr double kSignificance = 1e-3;
+  /// Per check, over every split and effect (Bonferroni). A tenth of the offline analysis's
+  /// (kVariationSignificance): offline the test runs once per recording, live once per press cycle; at 1e-3
+  /// one check in about 1400 on steady plants claimed a change (air on a fast press with a leak throughout,
+  /// p = 6.7e-4), a fast press would hear of one every half hour.
+  static constexpr double kSignificance = 1e-4;
+  /// A change is claimed only while it is recent: at most this many complete cycles after its onset (found
+  /// two cycles after it, three for some overlaps and air, where it was found at all). A step further back
+  /// has been tested at the checks before; testing it again after every cycle only adds chances of a false
+  /// claim.
+  static constexpr int kRecentCycles = 4;
 
   LiveChangePoint() = default;
   /// Waits for a running check.
@@ -46,7 +54,8 @@ class LiveChangePoint {
   /// A new model or a new run: cycles are counted again from the next impact, no change is known, a running
   /// check's result is dropped.
   void restart();
-  /// The stamps jumped back (a bag restarted): the cycles before are another run's, forgotten.
+  /// The stamps jumped back (a bag restarted): the cycles before are another run's, forgotten with their
+  /// change; the checks read only the samples since.
   void resync();
 
   /// One grid sample, after it was appended to `window` (the monitor's ranking window). Starts a check of the
@@ -59,7 +68,7 @@ class LiveChangePoint {
   /// so that the stroke segmentation sees the impact as the first cycle's.
   static constexpr double kLeadTime = 0.1;
   /// [s] grid time from which the window holds only the plant as it is now (kLeadTime before the last
-  /// onset's impact, or the sample after a resync); -inf before either.
+  /// onset's impact); -inf before a change.
   double windowStart() const { return window_start_; }
   /// The last change found since the restart.
   const std::optional<LiveOnset>& onset() const { return onset_; }
@@ -98,7 +107,9 @@ class LiveChangePoint {
   double run_start_ = std::numeric_limits<double>::quiet_NaN();
   double window_start_ = -std::numeric_limits<double>::infinity();
   bool check_pending_ = false;  // a cycle completed while a check ran: check again when it ends
-  bool resynced_ = false;       // the next sample starts the window anew
+  // Samples since the restart or resync: after a resync the window's older samples are another run's (with
+  // later stamps, so no time tells them apart).
+  std::size_t samples_this_run_ = 0;
   std::optional<LiveOnset> onset_;
   std::future<Job> job_;
   double last_check_seconds_ = std::numeric_limits<double>::quiet_NaN();
