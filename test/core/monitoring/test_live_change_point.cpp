@@ -88,8 +88,8 @@ constexpr double kCyclesAfter = 8.0;
 
 TEST(LiveChangePoint, AnEffectThatBeginsMidRunIsNamedWithItsCycleWithinThreeCycles) {
   // Leakage on every class; a tank pressure and a valve overlap on the paper's press and the fast one. (Air
-  // is named on some presses only: its step in the one-cycle fits stays below the live threshold on most,
-  // doc/ros_interface.md.)
+  // is named on some presses only: its step in the one-cycle fits stays below the live threshold on the fast
+  // mechanical press, doc/ros_interface.md.)
   for (const Case c :
        {Case{PressClass::kSlowHydraulic, "leakage"}, Case{PressClass::kFastMechanical, "leakage"},
         Case{PressClass::kSmallStiff, "leakage"}, Case{PressClass::kLargeSoft, "leakage"},
