@@ -28,7 +28,7 @@
 namespace {
 
 const std::string kTools = TOOL_DIR;
-const std::string kWork = "/tmp/die_cushion_ident_test_analyze_bag";
+const std::string kWork = die_cushion_ident::testing::workDirectory("test_analyze_bag");
 
 using die_cushion_ident::testing::CommandResult;
 

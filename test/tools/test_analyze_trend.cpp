@@ -19,7 +19,7 @@
 namespace {
 
 const std::string kTools = TOOL_DIR;
-const std::string kWork = "/tmp/die_cushion_ident_test_analyze_trend";
+const std::string kWork = die_cushion_ident::testing::workDirectory("test_analyze_trend");
 constexpr double kFirstDay = 1772582400.0;  // 2026-03-04T00:00:00Z
 constexpr int kOnset = 8;                     // the leakage starts rising on 2026-03-12
 

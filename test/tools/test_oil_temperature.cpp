@@ -25,7 +25,7 @@
 namespace {
 
 const std::string kTools = TOOL_DIR;
-const std::string kWork = "/tmp/die_cushion_ident_test_oil_temperature";
+const std::string kWork = die_cushion_ident::testing::workDirectory("test_oil_temperature");
 constexpr double kFirstDay = 1772582400.0;  // 2026-03-04T00:00:00Z
 
 using die_cushion_ident::testing::CommandResult;

@@ -27,7 +27,7 @@
 namespace {
 
 const std::string kTools = TOOL_DIR;
-const std::string kWork = "/tmp/die_cushion_ident_test_press_classes";
+const std::string kWork = die_cushion_ident::testing::workDirectory("test_press_classes");
 const std::vector<std::string> kClasses = {"slow_hydraulic", "fast_mechanical", "small_stiff", "large_soft"};
 const std::vector<std::string> kEffects = {"leakage", "entrained_air", "valve_overlap", "tank_pressure"};
 const std::vector<std::string> kEffectParameter = {"leakage_conductance", "air_volume", "valve_overlap", "tank_pressure"};

@@ -24,7 +24,7 @@
 namespace {
 
 const std::string kTools = TOOL_DIR;
-const std::string kWork = "/tmp/die_cushion_ident_test_sensor_configurations";
+const std::string kWork = die_cushion_ident::testing::workDirectory("test_sensor_configurations");
 // The simulator's pressure sensor noise [Pa] (SensorConfig::pressure_noise).
 constexpr double kPressureNoise = 0.2e5;
 

@@ -21,7 +21,7 @@ namespace die_cushion_ident {
 namespace {
 
 const std::string kTools = TOOL_DIR;
-const std::string kWork = "/tmp/die_cushion_ident_test_special_recordings";
+const std::string kWork = die_cushion_ident::testing::workDirectory("test_special_recordings");
 
 testing::CommandResult run(const std::string& command) {
   return testing::runCommand(command, kWork + "/last_output.txt");

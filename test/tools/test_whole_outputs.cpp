@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 
 const std::string kTools = TOOL_DIR;
 const std::string kReport = std::string(SCRIPTS_DIR) + "/report";
-const std::string kWork = "/tmp/die_cushion_ident_test_whole_outputs";
+const std::string kWork = die_cushion_ident::testing::workDirectory("test_whole_outputs");
 
 using die_cushion_ident::testing::CommandResult;
 
