@@ -211,7 +211,7 @@ void emitInput(YAML::Emitter& out, const AnalysisInput& input, const OfflineResu
   static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
   out << YAML::Key << "input" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "bag" << YAML::Value << input.bag;
-  out << YAML::Key << "start" << YAML::Value << formatted("%.3f", input.start);
+  out << YAML::Key << "start" << YAML::Value << formatted(FMT_STRING("{:.3f}"), input.start);
   out << YAML::Key << "duration" << YAML::Value << input.duration;
   out << YAML::Key << "messages" << YAML::Value << r.messages;
   out << YAML::Key << "records_unreadable" << YAML::Value << input.records_unreadable;

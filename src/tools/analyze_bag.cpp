@@ -175,12 +175,12 @@ class SurveyThenAnalysis {
   }
   void chooseAndStart() {
     log_("choosing the sample period and filters from the recording's first " +
-         formatted("%.0f s", survey_->messages().empty() ? 0.0
+         formatted(FMT_STRING("{:.0f} s"), survey_->messages().empty() ? 0.0
                                                           : survey_->messages().back().second.stamp -
                                                                 survey_->messages().front().second.stamp));
     choice_ = survey_->choose();
     for (const auto& setting : choice_->settings) {
-      log_(setting.key + " = " + formatted("%g", setting.value) + ": " + setting.reason);
+      log_(setting.key + " = " + formatted(FMT_STRING("{:g}"), setting.value) + ": " + setting.reason);
     }
     start(choice_->config);
     // The kept messages in their order, the oil temperature's among them by stamp.

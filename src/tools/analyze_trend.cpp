@@ -279,7 +279,7 @@ Recording readRecording(const BagJob& job) {
   return r;
 }
 
-std::string csvNumber(double v) { return std::isfinite(v) ? formatted("%.9g", v) : ""; }
+std::string csvNumber(double v) { return std::isfinite(v) ? formatted(FMT_STRING("{:.9g}"), v) : ""; }
 
 void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Recording>& rows,
               const std::vector<std::string>& names, const std::vector<std::string>& effects,
@@ -296,7 +296,7 @@ void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Rec
   }
   csv << "\n";
   for (const auto& r : rows) {
-    csv << '"' << r.bag << "\"," << isoTime(r.start) << "," << formatted("%.3f", r.start) << ","
+    csv << '"' << r.bag << "\"," << isoTime(r.start) << "," << formatted(FMT_STRING("{:.3f}"), r.start) << ","
         << csvNumber(r.duration) << "," << config_name;
     for (const auto& n : names) {
       const auto p = std::find_if(r.parameters.begin(), r.parameters.end(), [&](const auto& q) { return q.name == n; });
@@ -357,7 +357,7 @@ double analysePending(std::vector<BagJob>& jobs, const std::vector<std::size_t>&
     analyse(job, o, analyze_bag, threads_each);
     std::lock_guard<std::mutex> lock(log_mutex);
     log(std::to_string(++done) + " of " + std::to_string(pending.size()) + ": " +
-        fs::path(job.bag).filename().string() + (job.failed ? " skipped: " + job.reason : formatted(" (%.1f s)", job.seconds)));
+        fs::path(job.bag).filename().string() + (job.failed ? " skipped: " + job.reason : formatted(FMT_STRING(" ({:.1f} s)"), job.seconds)));
   });
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 }
@@ -443,11 +443,11 @@ int emitParameterChanges(const std::vector<Recording>& rows, const std::vector<s
     for (const ParameterChange& change : found) {
       const std::string start = isoTime(change.start_stamp);
       std::string words = explainChange(name, units[name], change, start.substr(0, 10));
-      if (tracking.at_reference) words += formatted(" (compared at %.0f degC)", tracking.reference);
+      if (tracking.at_reference) words += formatted(FMT_STRING(" (compared at {:.0f} degC)"), tracking.reference);
       yaml << YAML::Flow << YAML::BeginMap;
       yaml << YAML::Key << "parameter" << YAML::Value << name << YAML::Key << "shape" << YAML::Value << change.shape;
       yaml << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start;
-      yaml << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", change.start_stamp);
+      yaml << YAML::Key << "start_stamp" << YAML::Value << formatted(FMT_STRING("{:.3f}"), change.start_stamp);
       yaml << YAML::Key << "alarm" << YAML::Value << YAML::DoubleQuoted << isoTime(change.alarm_stamp);
       yaml << YAML::Key << "before" << YAML::Value << change.before << YAML::Key << "after" << YAML::Value
            << change.after << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
@@ -473,12 +473,12 @@ void emitDetectableChanges(const std::vector<Recording>& rows, const std::vector
   if (tracking.at_reference) {
     yaml << YAML::Key << "reference_temperature" << YAML::Value << tracking.reference;
     yaml << YAML::Key << "note" << YAML::Value
-         << formatted(
-                "each parameter compared at %.0f degC (carried there by the oil's law), the rest of the "
-                "temperature's influence regressed out over the baseline",
+         << formatted(FMT_STRING(
+                "each parameter compared at {:.0f} degC (carried there by the oil's law), the rest of the "
+                "temperature's influence regressed out over the baseline"),
                 tracking.reference) +
                 (tracking.with_temperature < rows.size()
-                     ? formatted("; %.0f recordings without an oil temperature left out",
+                     ? formatted(FMT_STRING("; {} recordings without an oil temperature left out"),
                                  rows.size() - tracking.with_temperature)
                      : std::string());
   } else {
@@ -536,7 +536,7 @@ int emitVerdictChanges(const std::vector<Recording>& rows, const std::vector<std
                               "its parameters changes";
     yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "effect" << YAML::Value << effect << YAML::Key << "verdict"
          << YAML::Value << verdictName(Verdict::kMissing) << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start
-         << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", missing[first].first) << YAML::Key
+         << YAML::Key << "start_stamp" << YAML::Value << formatted(FMT_STRING("{:.3f}"), missing[first].first) << YAML::Key
          << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
     log("change: " + words);
     ++changes;
@@ -610,7 +610,7 @@ int run(int argc, char** argv) {
   const std::size_t skipped = jobs.size() - rows.size();
   log(std::to_string(rows.size()) + " recordings in the trend, " + std::to_string(skipped) + " skipped, " +
       std::to_string(changes) + " changes; " + std::to_string(pending.size()) + " analysed in " +
-      formatted("%.1f s", seconds) + "; results in " + o.out);
+      formatted(FMT_STRING("{:.1f} s"), seconds) + "; results in " + o.out);
   return rows.empty() ? 3 : 0;
 }
 

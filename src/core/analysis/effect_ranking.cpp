@@ -94,7 +94,7 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
       fitted = p.value;
       candidate.parameters.push_back(p);
       if (!(std::isfinite(p.value) && p.value >= info.lower_bound && p.value <= info.upper_bound)) {
-        implausible += "; the fit puts " + info.name + " at " + formatted("%.3g", p.value) + " " + info.unit +
+        implausible += "; the fit puts " + info.name + " at " + formatted(FMT_STRING("{:.3g}"), p.value) + " " + info.unit +
                        ", outside its physical range: the data do not show this effect";
       }
     }
@@ -227,7 +227,7 @@ std::string quotedList(const std::vector<EffectStep>& steps) {
 
 HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& implausible,
                             const EffectRankingOptions& options, const std::string& removes) {
-  const std::string reduction = formatted("%.0f %%", 100.0 * test.error_reduction);
+  const std::string reduction = formatted(FMT_STRING("{:.0f} %"), 100.0 * test.error_reduction);
   if (!implausible.empty()) return {Verdict::kNotNeeded, implausible};
   if (test.cycles < options.min_held_out_cycles) {
     return {Verdict::kInconclusive, "; only " + std::to_string(test.cycles) + " held-out cycles"};
@@ -238,9 +238,9 @@ HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& im
     const double gain = std::sqrt(std::max(test.base_rms * test.base_rms - test.with_rms * test.with_rms, 0.0));
     if (options.resolution_error > 0.0 && gain <= 2.0 * options.resolution_error) {
       return {Verdict::kInconclusive,
-              "; " + reduction + " less held-out error (" + formatted("%.2f bar", 1e-5 * gain) +
+              "; " + reduction + " less held-out error (" + formatted(FMT_STRING("{:.2f} bar"), 1e-5 * gain) +
                   "), but within twice the analysis's own resolution error of " +
-                  formatted("%.2f bar", 1e-5 * options.resolution_error) + ": resolution-limited" +
+                  formatted(FMT_STRING("{:.2f} bar"), 1e-5 * options.resolution_error) + ": resolution-limited" +
                   (options.resolution_remedy.empty() ? std::string() : "; " + options.resolution_remedy)};
     }
     return {Verdict::kMissing, "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
@@ -249,15 +249,15 @@ HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& im
     return {Verdict::kNotNeeded, "; it changes the held-out error by only " + reduction};
   }
   return {Verdict::kInconclusive, "; " + reduction + " less held-out error, but not consistently over the cycles (t = " +
-                              formatted("%.2f", test.t_statistic) + ")"};
+                              formatted(FMT_STRING("{:.2f}"), test.t_statistic) + ")"};
 }
 
 std::string holmDemotion(double error_reduction, double p_value, bool rejected, std::size_t tried,
                          const std::string& what) {
   if (rejected) return "";
-  return "; " + formatted("%.0f %%", 100.0 * error_reduction) +
+  return "; " + formatted(FMT_STRING("{:.0f} %"), 100.0 * error_reduction) +
          " less held-out error, but not significant once corrected for the " + std::to_string(tried) + " " + what +
-         " tried (Holm; one-sided p = " + formatted("%.2g", p_value) + ")";
+         " tried (Holm; one-sided p = " + formatted(FMT_STRING("{:.2g}"), p_value) + ")";
 }
 
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
@@ -279,7 +279,7 @@ namespace {
 std::string recordingsOwnShare(const EffectRankingOptions& options) {
   if (options.resolution_remedy.empty() || !(options.resolution_error > 0.0)) return "";
   return " Part of it is the recording's own resolution (" +
-         formatted("%.2f bar", 1e-5 * options.resolution_error) +
+         formatted(FMT_STRING("{:.2f} bar"), 1e-5 * options.resolution_error) +
          " measured on the model as configured): " + options.resolution_remedy + ", then judge it again.";
 }
 
@@ -287,8 +287,8 @@ std::string recordingsOwnShare(const EffectRankingOptions& options) {
 std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cycles,
                          const EffectRankingOptions& options) {
   const std::string held_out_path = [&] {
-    std::string text = formatted("%.1f", ranking.base_error_rms * 1e-5);
-    for (const auto& step : ranking.steps) text += " -> " + formatted("%.1f", step.held_out_error_rms * 1e-5);
+    std::string text = formatted(FMT_STRING("{:.1f}"), ranking.base_error_rms * 1e-5);
+    for (const auto& step : ranking.steps) text += " -> " + formatted(FMT_STRING("{:.1f}"), step.held_out_error_rms * 1e-5);
     return text + " bar rms on held-out cycles";
   }();
   if (!enough) {
@@ -299,10 +299,10 @@ std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cy
     return std::string(ranking.steps.empty()
                            ? ""
                            : "Add " + quotedList(ranking.steps) + " (" + held_out_path + "). ") +
-           "The error left (" + formatted("%.2f bar rms", ranking.best_error_rms * 1e-5) +
-           " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
+           "The error left (" + formatted(FMT_STRING("{:.2f} bar rms"), ranking.best_error_rms * 1e-5) +
+           " on held-out cycles, noise " + formatted(FMT_STRING("{:.2f} bar"), ranking.noise_rms * 1e-5) +
            ") is within the analysis's own resolution error (" +
-           formatted("%.2f bar", options.resolution_error * 1e-5) +
+           formatted(FMT_STRING("{:.2f} bar"), options.resolution_error * 1e-5) +
            "): resolution-limited, no effect is named" +
            (options.resolution_remedy.empty() ? std::string(".") : "; " + options.resolution_remedy + ".");
   }
@@ -317,8 +317,8 @@ std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cy
     return std::string(ranking.steps.empty() ? "The"
                                              : "Adding " + quotedList(ranking.steps) + " helps (" +
                                                    held_out_path + "), but the") +
-           " remaining error (" + formatted("%.1f bar rms", ranking.best_error_rms * 1e-5) +
-           " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
+           " remaining error (" + formatted(FMT_STRING("{:.1f} bar rms"), ranking.best_error_rms * 1e-5) +
+           " on held-out cycles, noise " + formatted(FMT_STRING("{:.2f} bar"), ranking.noise_rms * 1e-5) +
            ") is structured and not explained by the library's effects: describe it with a custom effect "
            "(--custom-effect NAME=EXPR) where the model fails." +
            recordingsOwnShare(options);
