@@ -91,6 +91,12 @@ Analysis analyze(const Recorded& r, const std::string& out, const std::string& e
   return die_cushion_ident::testing::analyzeBag(kTools, r.bag, r.config, out, extra, kWork + "/last_output.txt");
 }
 
+std::string formattedArguments(const char* format, double a) {
+  char text[256];
+  std::snprintf(text, sizeof(text), format, a);
+  return text;
+}
+
 std::string formattedArguments(const char* format, double a, double b) {
   char text[256];
   std::snprintf(text, sizeof(text), format, a, b);
@@ -364,6 +370,73 @@ TEST_F(PressClasses, AnEffectOutsideTheLibraryIsFoundOnFourToSixCycles) {
   }
   std::printf("as large as the library's leak, 4-8 cycles: found in %d of %d\n", full_size_found, full_size_runs);
   EXPECT_GE(full_size_found, 0.8 * full_size_runs);
+}
+
+// Two laws the library lacks (issue 47): a leak through a sharp edge, `sqrt(p)`, passing the press's library
+// leak's flow at half the supply pressure, and a supply notch, the valve's supply edge passing 30 % more than
+// its drain edge beyond an opening of -0.3, `-max(-0.3-y,0)*sqrt(pS-p)`. The search runs on what the
+// recommended library model leaves above the structured-error floor; what the conclusion recommends (library
+// steps, then the first missing formula) ends within 3 x the noise on held-out cycles, and the conclusion
+// says what is left: "within the noise" only up to 2 x it. DCI_OUT_OF_LIBRARY=N (scripts/out_of_library_shapes)
+// runs N plant variations of every class and prints the table; the suite runs three recordings.
+TEST_F(PressClasses, ASharpEdgedLeakAndASupplyNotchEndWithinThreeTimesTheNoise) {
+  const char* requested = std::getenv("DCI_OUT_OF_LIBRARY");
+  const int variations = requested ? std::max(1, std::atoi(requested)) : 1;
+  struct Shape {
+    std::string name, press;
+  };
+  std::vector<Shape> runs;
+  if (requested) {
+    for (const std::string& press : kClasses) {
+      for (const char* shape : {"orifice", "supply_notch"}) runs.push_back({shape, press});
+    }
+  } else {
+    runs = {{"orifice", "small_stiff"}, {"orifice", "large_soft"}, {"supply_notch", "slow_hydraulic"}};
+  }
+  std::printf("%-13s %-16s %3s %10s %10s %10s  %s\n", "shape", "class", "var", "base/noise", "library",
+              "recommended", "first missing proposal");
+  for (const Shape& shape : runs) {
+    for (int variation = 0; variation < variations; ++variation) {
+      Case plant{shape.press, "leakage", "", variation, 1};
+      plant.cycles = 1;
+      const Recorded truth = record(plant);
+      const double supply = YAML::LoadFile(truth.config)["supply_pressure"].as<double>();
+      const std::string law =
+          shape.name == "orifice"
+              ? formattedArguments("--custom-effect 'orifice=sqrt(max(p,0))' --set orifice_theta=%g",
+                                   truth.truth["leakage_conductance"].as<double>() * std::sqrt(0.5 * supply))
+              : formattedArguments("--custom-effect 'notch=-max(-0.3-y,0)*sqrt(max(%.9g-p,0))' --set notch_theta=%g",
+                                   supply, 0.3 * truth.truth["valve_flow_gain"].as<double>());
+      const Case c{shape.press, "none", law, variation, 3};  // the law rides on the command line
+      SCOPED_TRACE(c.name());
+      const Analysis a = analyze(record(c), kWork + "/" + c.name());
+      if (requested && a.status != 0) {  // the table says so (a large notch can make the base fit implausible)
+        std::printf("%-13s %-16s %3d exit %d: %s\n", shape.name.c_str(), shape.press.c_str(), variation, a.status,
+                    a.summary ? a.summary["warnings"][0].as<std::string>("").substr(0, 90).c_str() : "");
+        continue;
+      }
+      ASSERT_EQ(a.status, 0) << a.output;
+      const YAML::Node adequacy = a.summary["adequacy"];
+      const double noise = adequacy["noise_rms"].as<double>(), library = adequacy["best_error_rms"].as<double>();
+      double recommended = library;
+      std::string proposal = "-";
+      for (const auto& p : a.summary["proposals"]) {
+        if (p["verdict"].as<std::string>() != "missing") continue;
+        proposal = p["expression"].as<std::string>();
+        recommended = std::min(recommended, p["held_out_error_rms"].as<double>());
+        break;  // the first missing one is the one the conclusion recommends
+      }
+      const std::string conclusion = adequacy["conclusion"].as<std::string>();
+      std::printf("%-13s %-16s %3d %10.1f %10.2f %10.2f  %s\n", shape.name.c_str(), shape.press.c_str(), variation,
+                  adequacy["held_out_error_rms"].as<double>() / noise, library / noise, recommended / noise,
+                  proposal.c_str());
+      if (requested) continue;  // the nightly table states what it measured; the suite's three are asserted
+      EXPECT_NE(proposal, "-") << conclusion;
+      EXPECT_LE(recommended, 3.0 * noise) << conclusion;
+      EXPECT_NE(conclusion.find("x the noise"), std::string::npos) << "what is left, against the noise: " << conclusion;
+      EXPECT_EQ(conclusion.find("within the noise") != std::string::npos, recommended <= 2.0 * noise) << conclusion;
+    }
+  }
 }
 
 // Over many clean recordings across the classes, the share told that something is missing stays at or below

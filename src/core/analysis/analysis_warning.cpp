@@ -48,6 +48,8 @@ const char* warningCodeName(WarningCode code) {
       return "cycles_thinned";
     case WarningCode::kOilTemperature:
       return "oil_temperature";
+    case WarningCode::kNoPressStroke:
+      return "no_press_stroke";
   }
   return "unknown";
 }

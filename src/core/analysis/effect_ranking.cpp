@@ -261,7 +261,29 @@ std::string holmDemotion(double error_reduction, double p_value, bool rejected, 
 }
 
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
-  return std::max(options.unexplained_noise_factor * noise_rms, 1e5);
+  // What the noise leaves in a model's own free run, and twice the recording's resolution error (the same
+  // margin withinResolution gives it), independent of each other. No absolute bar: 1 bar was 5 x the noise
+  // of a press whose leak law the library lacks, and stopped the search there.
+  const double resolution = options.resolution_error > 0.0 ? 2.0 * options.resolution_error : 0.0;
+  return std::hypot(options.unexplained_noise_factor * noise_rms, resolution);
+}
+
+std::string errorLeftInWords(double error_rms, double noise_rms, const EffectRankingOptions& options) {
+  const double floor = structuredErrorFloor(noise_rms, options);
+  const std::string left =
+      formatted("%.2f bar rms left on held-out cycles, %.1f x the noise of %.2f bar", 1e-5 * error_rms,
+                noise_rms > 0.0 ? error_rms / noise_rms : 0.0, 1e-5 * noise_rms);
+  if (error_rms <= options.within_noise_factor * noise_rms) return left + ": within the noise";
+  const std::string floor_words =
+      formatted("the %.2f bar a model's own free run leaves (%.0f x the noise", 1e-5 * floor,
+                options.unexplained_noise_factor) +
+      (options.resolution_error > 0.0
+           ? formatted(", with twice the recording's resolution error of %.2f bar)",
+                       1e-5 * options.resolution_error)
+           : std::string(")"));
+  if (error_rms <= floor)
+    return left + ": above the noise, but within " + floor_words + ", too little to search a formula for";
+  return left + ": above " + floor_words;
 }
 
 bool withinResolution(double error_rms, double noise_rms, const EffectRankingOptions& options) {
@@ -306,12 +328,14 @@ std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cy
            "): resolution-limited, no effect is named" +
            (options.resolution_remedy.empty() ? std::string(".") : "; " + options.resolution_remedy + ".");
   }
+  const std::string left = errorLeftInWords(ranking.best_error_rms, ranking.noise_rms, options);
   if (!ranking.steps.empty() && !ranking.residual_unexplained) {
-    return ranking.steps.size() == 1
-               ? "Add the effect " + quotedList(ranking.steps) + ": it explains the remaining error (" +
-                     held_out_path + ")."
-               : "Add the effects " + quotedList(ranking.steps) +
-                     " together: they explain the remaining error (" + held_out_path + ").";
+    return (ranking.steps.size() == 1
+                ? "Add the effect " + quotedList(ranking.steps) + ": it explains the remaining error (" +
+                      held_out_path + "); "
+                : "Add the effects " + quotedList(ranking.steps) +
+                      " together: they explain the remaining error (" + held_out_path + "); ") +
+           left + ".";
   }
   if (ranking.residual_unexplained) {
     return std::string(ranking.steps.empty() ? "The"
@@ -323,7 +347,10 @@ std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cy
            "(--custom-effect NAME=EXPR) where the model fails." +
            recordingsOwnShare(options);
   }
-  return "The model explains the measurement to within the noise: no effect is missing.";
+  if (ranking.best_error_rms <= options.within_noise_factor * ranking.noise_rms) {
+    return "The model explains the measurement to within the noise: no effect is missing (" + left + ").";
+  }
+  return "Within what a model's own free run leaves, no effect is missing: " + left + ".";
 }
 
 }  // namespace

@@ -563,8 +563,8 @@ std::vector<std::string> supersededSteps(const std::vector<GridSample>& grid,
 
 // The conclusion with the proposed terms: what to add and how far the held-out error falls.
 std::string formulaConclusion(const std::vector<const FormulaProposal*>& add,
-                              const std::vector<std::string>& superseded,
-                              const EffectRankingResult& ranking) {
+                              const std::vector<std::string>& superseded, const EffectRankingResult& ranking,
+                              const EffectRankingOptions& options) {
   std::string terms, path = inBar(ranking.best_error_rms);
   for (std::size_t i = 0; i < add.size(); ++i) {
     terms += std::string(i == 0 ? "" : " together with ") + "'" + add[i]->spec() + "' (" +
@@ -578,7 +578,13 @@ std::string formulaConclusion(const std::vector<const FormulaProposal*>& add,
   return (library.empty() ? "The" : "Add the library effect(s) " + library + "; the") +
          " error no library effect explains has a formula: add " + terms +
          " as a custom effect (--custom-effect or ~set_effects); held-out error " + path +
-         " bar rms, noise " + inBar(ranking.noise_rms) + " bar." +
+         " bar rms, noise " + inBar(ranking.noise_rms) + " bar; with it " +
+         errorLeftInWords(add.back()->held_out_error_rms, ranking.noise_rms, options) +
+         (add.back()->held_out_error_rms > structuredErrorFloor(ranking.noise_rms, options)
+              ? (add.size() < 2 ? ", and no second term proved itself on held-out cycles"
+                                : ", and the search stops at two terms")
+              : "") +
+         "." +
          (dropped.empty()
               ? ""
               : " " + dropped + " is then not needed (the formula explains what it took part of).");
@@ -614,7 +620,7 @@ void addFormulaProposals(const std::vector<GridSample>& grid, const StrokeSegmen
   }
   const std::vector<std::string> superseded =
       supersededSteps(grid, strokes, recommended, add, ranking, ranking_options);
-  ranking->conclusion = formulaConclusion(add, superseded, *ranking);
+  ranking->conclusion = formulaConclusion(add, superseded, *ranking, ranking_options);
 }
 
 }  // namespace die_cushion_ident

@@ -96,6 +96,20 @@ StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid) {
   return s;
 }
 
+bool holdsNoPressStroke(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                        double stroke_length) {
+  if (!strokes.cycle_start.empty()) return false;
+  double lowest = std::numeric_limits<double>::infinity(), highest = -lowest;
+  for (const GridSample& g : grid) {
+    const double x = g.x;
+    if (!std::isfinite(x)) continue;
+    lowest = std::min(lowest, x);
+    highest = std::max(highest, x);
+  }
+  // No position at all is another problem (the input's), not a recording at rest.
+  return highest >= lowest && highest - lowest < 0.1 * stroke_length;
+}
+
 std::pair<std::size_t, std::size_t> StrokeSegmentation::range(int first, int last) const {
   const int impacts = static_cast<int>(cycle_start.size());
   const std::size_t begin = first <= -1 ? 0 : first >= impacts ? samples : cycle_start[first];

@@ -416,7 +416,11 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
         {WarningCode::kCyclesThinned, thinnedInWords(r.thinning, config_.resampler.sample_period)});
   analyzeValveSweep(&r, tell);
   if (r.hydraulics) fitTheWholeRecording(model, coverage_.with_velocity > 0, coverage_.highest, &r, tell);
-  if (r.hydraulics && r.model.updates == 0) {
+  if (r.no_press_stroke) {
+    r.ranking.conclusion =
+        "A recording without press strokes: judged for its step responses and valve sweeps only (see "
+        "step_response and valve); the hydraulics need press strokes.";
+  } else if (r.hydraulics && r.model.updates == 0) {
     // Nothing identified: no comparison of initial values with the measurement, no verdicts on them.
     r.ranking.conclusion = "No conclusion: nothing was identified (see the warnings).";
   } else if (r.hydraulics) {
@@ -438,6 +442,19 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
   }
   tell("segmenting the strokes");
   r.strokes = segmentStrokes(grid_.grid());
+  if (holdsNoPressStroke(grid_.grid(), r.strokes, config_.geometry.stroke_length)) {
+    // Not a press recording: at rest the bulk modulus and the dead volume cannot be told apart, and a fit
+    // would read as an implausible press model (K' = -1.4e10 on a step test). What it holds is judged below.
+    cannotRun(
+        r,
+        "the recording holds no press stroke (the cushion at rest, no impact): a step-test or valve-sweep "
+        "recording; the hydraulics are not identified from it (at rest the bulk modulus and the dead "
+        "volume cannot be told apart), its step responses and valve sweeps are; record press strokes to "
+        "identify the hydraulics",
+        WarningCode::kNoPressStroke);
+    r.no_press_stroke = true;
+    return;
+  }
   tell("fitting the model to the whole recording");
   r.model = fitOnCycles(grid_.grid(), r.strokes, config_, INT_MIN, INT_MAX);
   if (r.model.updates == 0 && highest < config_.min_pressure) {
@@ -546,7 +563,7 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
     r.ranking = rankEffects(grid_.grid(), r.strokes, config_, ranking_options);
     if (r.ranking.residual_unexplained || always_propose_) {
       tell("searching for a formula for the error the library leaves");
-      addFormulaProposals(grid_.grid(), r.strokes, config_, &r.ranking);
+      addFormulaProposals(grid_.grid(), r.strokes, config_, &r.ranking, ranking_options);
     }
     r.ranking.recommended_held_out.predictions.reset();  // the base's free runs: 7 MB an hour, no longer read
     if (r.strokes.cycles == 0) {

@@ -19,6 +19,7 @@
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
+#include "die_cushion_ident/core/valve/step_response.h"
 
 namespace die_cushion_ident {
 
@@ -589,6 +590,8 @@ struct StudyOutcome {
   bool studied = false;   // the configured model's fit was plausible, and its free run was studied
   bool resolved = false;  // a period's free run changed by less than the allowed share when it halved
   std::string implausible;  // the first implausible parameter, where the fit was
+  bool no_press_stroke = false;  // the survey holds no press stroke (a step test or sweep at rest)
+  double step_t63 = 0.0;         // [s] the first step test's t63 in such a survey (0: none found)
   double grid_error = 0.0;  // [Pa] the grid's own resolution error (the topics' rates not in it)
 };
 
@@ -621,6 +624,7 @@ class ResolutionStudy {
     parallelFor(2, jobs_, [&](std::size_t i) { level(k + i, i == 0 ? model_ : own); });
   }
   void identifyAtTheFinestPeriod(StudyOutcome& outcome);
+  void chooseForTheStepTest(StudyOutcome& outcome);
   std::size_t halveUntilSettled(double allowed_change, bool* resolved);
   void judgeTheFinestPeriod(std::size_t chosen, double allowed_change, double noise, double finest_interval,
                             bool* resolved);
@@ -661,7 +665,32 @@ void ResolutionStudy::identifyAtTheFinestPeriod(StudyOutcome& outcome) {
       fit_.updates > 0 ? implausibleParameters(model_, fit_, 3.0, &uncertain) : std::vector<std::string>();
   if (!implausible.empty()) outcome.implausible = implausible.front();
   outcome.studied = fit_.updates > 0 && fit_.values().allFinite() && implausible.empty();
+  // A step test or sweep at rest cannot tell the bulk modulus from the dead volume: its fit says nothing of
+  // the model (K' = -1.4e10 on a step test), and the survey is not studied. It is said as what it is, not as
+  // an implausible press; its period is chosen as before (a live node surveying an idle press keeps the
+  // finest, which a fast press needs once it strokes), unless a step test sets it (chooseForTheStepTest).
+  const Level& finest = levels_.back();
+  outcome.no_press_stroke =
+      !outcome.studied && holdsNoPressStroke(finest.grid, finest.strokes, choice_.config.geometry.stroke_length);
   theta_ = !outcome.studied ? ParameterVector() : refined ? refined->theta : fit_.values();
+}
+
+// A survey at rest that holds a valve step test: the pressure's t63, timed on the finest grid, sets the
+// period (at most a tenth of it, the paper's rule, as step_response's recommended_max_sampling_time): the
+// coarsest studied period within it, else the finest. A fast press's 19 ms t63 on the paper's 2 ms was
+// "sampling too coarse"; a slow press's 108 ms keeps 2 ms.
+void ResolutionStudy::chooseForTheStepTest(StudyOutcome& outcome) {
+  const std::vector<StepResponse> steps = findStepResponses(levels_.back().grid);
+  if (steps.empty()) return;
+  outcome.step_t63 = steps.front().t63;
+  const double most = steps.front().recommendedMaxSamplingTime();
+  outcome.chosen_period = periods_.back();
+  for (double period : periods_) {
+    if (period <= most) {
+      outcome.chosen_period = period;
+      break;
+    }
+  }
 }
 
 // From 2 ms down, halving, until the free run stops changing or the recording's rate is reached; the
@@ -746,6 +775,7 @@ StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double fi
   if (!outcome.studied) {
     outcome.chosen_period = outcome.implausible.empty() ? configured_period : periods_.back();
     choice_.resolution_error = std::numeric_limits<double>::quiet_NaN();
+    if (outcome.no_press_stroke) chooseForTheStepTest(outcome);
     return outcome;
   }
   const std::size_t chosen = halveUntilSettled(allowed_change, &outcome.resolved);
@@ -771,6 +801,16 @@ StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double fi
 // Why the sample period is what it is, in words.
 std::string periodReason(const StudyOutcome& outcome, const SettingsChoice& choice, double finest_interval,
                          double noise) {
+  if (outcome.no_press_stroke) {
+    const std::string period =
+        outcome.step_t63 > 0.0 ? formatted("within a tenth of the step test's t63 (%.3g ms)", 1e3 * outcome.step_t63)
+        : outcome.implausible.empty()
+            ? std::string("the paper's value")
+            : formatted("the finest the recording supports (messages every %.3g ms)", 1e3 * finest_interval);
+    return period +
+           ": the survey holds no press stroke (a step test or valve sweep with the cushion at rest), nothing to "
+           "identify a model from and study the grid's error with";
+  }
   if (!outcome.implausible.empty()) {
     return formatted(FMT_STRING("the finest the recording supports (messages every {:.3g} ms), unstudied: the configured "
                      "model's fit is implausible ("),

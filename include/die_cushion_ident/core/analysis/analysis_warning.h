@@ -29,6 +29,7 @@ enum class WarningCode {
   kNotFinite,              ///< figures that could not be computed, written as null
   kCyclesThinned,          ///< a long recording's cycle-based analyses judged evenly spaced cycles
   kOilTemperature,         ///< the oil temperature the model needs is missing in part or whole
+  kNoPressStroke,  ///< a recording at rest (step test, sweep): the hydraulics are not identified from it
 };
 
 /// The code's name in summary.yaml ("geometry_default", ...).

@@ -46,6 +46,14 @@ struct StrokeSegmentation {
 };
 StrokeSegmentation segmentStrokes(const std::vector<GridSample>& grid);
 
+/// Whether a recording holds no press stroke: no impact began a cycle and the cushion travelled less than
+/// a tenth of `stroke_length` [m] (a valve step test or sine sweep with the cushion at rest). At rest the
+/// chamber's volume does not change, so the bulk modulus and the dead volume cannot be told apart (a fit
+/// gave K' = -1.4e10 on a step test): such a recording is judged for its step responses and sweeps, never
+/// as a press.
+bool holdsNoPressStroke(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
+                        double stroke_length);
+
 /// The identified model against the measurement over a recording: free run (FreeRunPressure) with the
 /// given parameters, and where it fails.
 struct ModelAssessment {

@@ -76,6 +76,9 @@ struct OfflineResult {
   /// What each of `model`'s stds is made of (model order; combineUncertainty).
   std::vector<ParameterUncertainty> uncertainty;
   bool hydraulics = false;  ///< pressure and position were there to identify the hydraulics
+  /// The recording holds no press stroke (holdsNoPressStroke): a step test or sweep, not identified as a
+  /// press.
+  bool no_press_stroke = false;
   StrokeSegmentation strokes;
   ModelAssessment assessment;
   EffectRankingResult ranking;

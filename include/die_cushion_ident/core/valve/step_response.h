@@ -21,7 +21,11 @@ struct StepResponse {
 
 struct StepResponseOptions {
   double min_step = 0.1;            ///< [V] smaller command changes are no step test
-  double max_rest_velocity = 0.005;  ///< [m/s] the cushion counts as at rest below
+  double max_rest_velocity = 0.005;  ///< [m/s] the cushion counts as at rest below ...
+  /// [s] ... in its velocity averaged over this window around each sample: a velocity derived from a noisy
+  /// position over two fine grid periods scatters beyond max_rest_velocity at rest (a 1 ms grid, 4 um
+  /// of position noise: ~3 mm/s), and one such sample broke the hold on the grid the survey chose.
+  double rest_window = 0.02;
   double before = 0.1;              ///< [s] of steady command and pressure before the step
   double min_hold = 0.3;            ///< [s] the new command must hold at least this long
   double min_change = 2e5;          ///< [Pa] smaller pressure changes cannot be timed
@@ -29,9 +33,9 @@ struct StepResponseOptions {
 };
 
 /// Finds command steps at rest in a recording's grid (the voltage jumps by at least min_step and holds,
-/// the cushion does not move) and times the pressure's answer, interpolating between grid samples. A
-/// response that has not settled by the end of the hold (the last two tenths differ by more than 5 % of
-/// the change) is left out.
+/// the cushion does not move: its velocity averaged over rest_window within max_rest_velocity) and times the
+/// pressure's answer, interpolating between grid samples. A response that has not settled by the end of the
+/// hold (the last two tenths differ by more than 5 % of the change) is left out.
 std::vector<StepResponse> findStepResponses(const std::vector<GridSample>& grid,
                                             const StepResponseOptions& options = {});
 
