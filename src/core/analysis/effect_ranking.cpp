@@ -271,14 +271,14 @@ double structuredErrorFloor(double noise_rms, const EffectRankingOptions& option
 std::string errorLeftInWords(double error_rms, double noise_rms, const EffectRankingOptions& options) {
   const double floor = structuredErrorFloor(noise_rms, options);
   const std::string left =
-      formatted("%.2f bar rms left on held-out cycles, %.1f x the noise of %.2f bar", 1e-5 * error_rms,
+      formatted(FMT_STRING("{:.2f} bar rms left on held-out cycles, {:.1f} x the noise of {:.2f} bar"), 1e-5 * error_rms,
                 noise_rms > 0.0 ? error_rms / noise_rms : 0.0, 1e-5 * noise_rms);
   if (error_rms <= options.within_noise_factor * noise_rms) return left + ": within the noise";
   const std::string floor_words =
-      formatted("the %.2f bar a model's own free run leaves (%.0f x the noise", 1e-5 * floor,
+      formatted(FMT_STRING("the {:.2f} bar a model's own free run leaves ({:.0f} x the noise"), 1e-5 * floor,
                 options.unexplained_noise_factor) +
       (options.resolution_error > 0.0
-           ? formatted(", with twice the recording's resolution error of %.2f bar)",
+           ? formatted(FMT_STRING(", with twice the recording's resolution error of {:.2f} bar)"),
                        1e-5 * options.resolution_error)
            : std::string(")"));
   if (error_rms <= floor)

@@ -803,10 +803,10 @@ std::string periodReason(const StudyOutcome& outcome, const SettingsChoice& choi
                          double noise) {
   if (outcome.no_press_stroke) {
     const std::string period =
-        outcome.step_t63 > 0.0 ? formatted("within a tenth of the step test's t63 (%.3g ms)", 1e3 * outcome.step_t63)
+        outcome.step_t63 > 0.0 ? formatted(FMT_STRING("within a tenth of the step test's t63 ({:.3g} ms)"), 1e3 * outcome.step_t63)
         : outcome.implausible.empty()
             ? std::string("the paper's value")
-            : formatted("the finest the recording supports (messages every %.3g ms)", 1e3 * finest_interval);
+            : formatted(FMT_STRING("the finest the recording supports (messages every {:.3g} ms)"), 1e3 * finest_interval);
     return period +
            ": the survey holds no press stroke (a step test or valve sweep with the cushion at rest), nothing to "
            "identify a model from and study the grid's error with";
