@@ -88,6 +88,17 @@ void LivePublishers::ranking(const LiveRanking& ranking, double stamp) {
     msg.proposal_explanations.push_back(p.explanation);
   }
   msg.conclusion = result.conclusion;
+  if (ranking.onset) {
+    const EffectOnset& onset = ranking.onset->onset;
+    msg.onset_effect = onset.effect;
+    msg.onset_parameter = onset.parameter;
+    msg.onset_cycle = onset.cycle;
+    msg.onset_stamp = ros::Time(std::max(ranking.onset->stamp, 0.0));
+    msg.onset_before = onset.before;
+    msg.onset_after = onset.after;
+    msg.onset_unit = onset.unit;
+    msg.onset_explanation = onset.explanation;
+  }
   ranking_pub_.publish(msg);
 }
 

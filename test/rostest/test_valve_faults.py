@@ -268,7 +268,8 @@ class ValveFaults(unittest.TestCase):
         check_limits(self, ff, -VOLTAGE, VOLTAGE)
         check_slew(self, self.recorder.stamped_feed_forward(), SLEW)
         with lock:
-            check_one_output_at_a_time(self, commands, ff, offsets=sorted(offsets))
+            check_one_output_at_a_time(self, self.recorder.stamped_commands(), self.recorder.stamped_feed_forward(),
+                                       offsets=sorted(offsets))
         print("random service calls: %d valve commands, %d feed-forward messages recorded" % (len(commands), len(ff)))
 
 

@@ -99,7 +99,8 @@ class ValveFaultsStress(unittest.TestCase):
         check_limits(self, ff, -VOLTAGE, VOLTAGE)
         check_slew(self, recorder.stamped_feed_forward(), SLEW)
         with lock:
-            check_one_output_at_a_time(self, commands, ff, offsets=sorted(offsets))
+            check_one_output_at_a_time(self, recorder.stamped_commands(), recorder.stamped_feed_forward(),
+                                       offsets=sorted(offsets))
 
 
 if __name__ == "__main__":

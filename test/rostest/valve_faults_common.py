@@ -55,6 +55,7 @@ class Recorder:
         self.lock = threading.Lock()
         self.commands, self.feed_forward = [], []  # (arrival, V)
         self.feed_forward_stamped = []  # (stamp [s, ROS time when sent], V)
+        self.commands_stamped = []  # (stamp [s, ROS time when sent], V)
         self.last_input = 0.0  # arrival of the press's newest valve message
         self.subs = [
             rospy.Subscriber("/die_cushion/valve_command", ValveSignal, self._on, self.commands, queue_size=10000,
@@ -67,8 +68,8 @@ class Recorder:
     def _on(self, msg, into):
         with self.lock:
             into.append((time.monotonic(), msg.voltage))
-            if into is self.feed_forward:
-                self.feed_forward_stamped.append((msg.header.stamp.to_sec(), msg.voltage))
+            stamped = self.feed_forward_stamped if into is self.feed_forward else self.commands_stamped
+            stamped.append((msg.header.stamp.to_sec(), msg.voltage))
 
     def _on_input(self, _):
         with self.lock:
@@ -81,6 +82,10 @@ class Recorder:
     def stamped_feed_forward(self):
         with self.lock:
             return list(self.feed_forward_stamped)
+
+    def stamped_commands(self):
+        with self.lock:
+            return list(self.commands_stamped)
 
 
 def wait_until(predicate, timeout, what):
@@ -126,12 +131,17 @@ def check_slew(case, feed_forward_stamped, slew_rate, jitter=0.0005):
         case.assertLessEqual(abs(u1 - u0), allowed, "a step of %.4f V in %.2f ms" % (u1 - u0, (t1 - t0) * 1e3))
 
 
-def check_one_output_at_a_time(case, commands, feed_forward, offsets=(), margin=0.02):
-    """An experiment's command (other than a hand-back to an offset) never arrives while the feed-forward's
-    last message was other than 0 V (`margin` [s] for the two topics' transport)."""
-    for arrival, voltage in commands:
+def check_one_output_at_a_time(case, commands_stamped, feed_forward_stamped, offsets=()):
+    """An experiment's command (other than a hand-back to an offset) is never decided while the feed-forward's
+    last message was other than 0 V. Judged on the stamps, the moment the supervisor decided each message under
+    its one lock (SupervisedValve::publish), not on arrival here: the two topics come over two connections,
+    and under load one of them arrived more than 20 ms after the other (the feed-forward's 0 V after the
+    experiment's first command that the supervisor decided after it)."""
+    for stamp, voltage in commands_stamped:
         if any(abs(voltage - offset) < 1e-9 for offset in offsets):
             continue
-        before = [u for t, u in feed_forward if t <= arrival - margin]
+        # Within one topic the order is the order sent: the last message stamped at or before the command.
+        before = [u for t, u in feed_forward_stamped if t <= stamp]
         case.assertTrue(not before or before[-1] == 0.0,
-                        "an experiment's %.3f V while the feed-forward adds %.3f V" % (voltage, before[-1] if before else 0))
+                        "an experiment's %.3f V decided at %.4f s while the feed-forward adds %.3f V"
+                        % (voltage, stamp, before[-1] if before else 0))

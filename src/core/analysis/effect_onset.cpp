@@ -16,7 +16,6 @@ namespace die_cushion_ident {
 
 namespace {
 
-constexpr int kMinimumCycles = 6;
 constexpr int kMinimumSide = 2;  // groups on each side of a split
 
 struct Step {
@@ -139,11 +138,11 @@ std::optional<EffectOnset> effectStep(const std::string& name, const Identificat
 // When the onset happened, the press's cycle period, and the onset in words; in the recording's cycles where
 // the grid holds every cycle_stride-th.
 void describeOnset(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes, int cycle_stride,
-                   double recording_start, EffectOnset& o) {
+                   double recording_start, int first_cycle, EffectOnset& o) {
   const std::size_t begin = strokes.range(o.cycle, o.cycle).first;
   const double start = std::isfinite(recording_start) ? recording_start : grid.front().t;
   o.time = begin < grid.size() ? grid[begin].t - start : 0.0;
-  o.cycle *= cycle_stride;
+  o.cycle = o.cycle * cycle_stride + first_cycle;
   std::vector<double> periods;
   for (std::size_t c = 1; c < strokes.cycle_start.size(); ++c) {
     periods.push_back(grid[strokes.cycle_start[c]].t - grid[strokes.cycle_start[c - 1]].t);
@@ -168,8 +167,9 @@ void describeOnset(const std::vector<GridSample>& grid, const StrokeSegmentation
 std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
                                            const StrokeSegmentation& strokes,
                                            const IdentificationConfig& config, double significance, int jobs,
-                                           int max_groups, int cycle_stride, double recording_start) {
-  if (strokes.cycles < kMinimumCycles) return std::nullopt;
+                                           int max_groups, int cycle_stride, double recording_start,
+                                           int first_cycle) {
+  if (strokes.cycles < kOnsetMinimumCycles) return std::nullopt;
   int tests = 0;
   std::vector<std::pair<EffectOnset, IdentificationConfig>> steps;  // each effect's step, its model
   for (const std::string& name : libraryEffectNames()) {
@@ -198,7 +198,7 @@ std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
     best = key;
     found = onset;
   }
-  if (found) describeOnset(grid, strokes, cycle_stride, recording_start, *found);
+  if (found) describeOnset(grid, strokes, cycle_stride, recording_start, first_cycle, *found);
   return found;
 }
 

@@ -41,6 +41,8 @@ void LiveModelMonitor::restart(const IdentificationConfig& config, const Hydraul
   ranking_.reset();
   ++generation_;
   last_ranking_time_ = -1e18;
+  ranking_now_ = false;
+  change_point_.restart();
   square_error_ = 0.0;
   phase_square_error_.fill(0.0);
   compared_ = 0;
@@ -52,6 +54,7 @@ void LiveModelMonitor::restart(const IdentificationConfig& config, const Hydraul
 void LiveModelMonitor::resync() {
   free_run_->resync();
   classifier_.reset();
+  change_point_.resync();
 }
 
 double LiveModelMonitor::simulationErrorRms() const { return std::sqrt(square_error_); }
@@ -67,7 +70,13 @@ std::optional<LiveRanking> LiveModelMonitor::addSample(const GridSample& g, cons
   const auto capacity = static_cast<std::size_t>(settings_.ranking_window / config_.resampler.sample_period);
   while (window_.size() > capacity) window_.pop_front();
   std::optional<LiveRanking> finished = collectRanking();
-  if (g.t - last_ranking_time_ >= settings_.ranking_period || g.t < last_ranking_time_) {
+  if (change_point_.addSample(g, window_, config_)) ranking_now_ = true;
+  if (ranking_now_ && !job_.valid()) {
+    // The new plant's first ranking: not a period later, and not skipped for one still running.
+    ranking_now_ = false;
+    last_ranking_time_ = g.t;
+    startRanking();
+  } else if (g.t - last_ranking_time_ >= settings_.ranking_period || g.t < last_ranking_time_) {
     last_ranking_time_ = g.t;
     startRanking();
   }
@@ -93,9 +102,27 @@ std::optional<LiveRanking> LiveModelMonitor::addSample(const GridSample& g, cons
   return finished;
 }
 
+std::vector<GridSample> LiveModelMonitor::currentPlantWindow() const {
+  std::vector<GridSample> grid;
+  grid.reserve(window_.size());
+  for (const GridSample& s : window_) {
+    if (s.t >= change_point_.windowStart()) grid.push_back(s);
+  }
+  return grid;
+}
+
+const LiveOnset* LiveModelMonitor::changeWithinWindow() const {
+  const auto& onset = change_point_.onset();
+  if (!onset || window_.empty() || !(window_.front().t < change_point_.windowStart())) return nullptr;
+  return &*onset;
+}
+
 void LiveModelMonitor::startRanking() {
   if (job_.valid()) return;  // the previous one is still running: the next period tries again
-  std::vector<GridSample> grid(window_.begin(), window_.end());
+  std::vector<GridSample> grid = currentPlantWindow();
+  // The change is reported while the window still reaches back before it (the ranking left those cycles out).
+  std::optional<LiveOnset> onset;
+  if (const LiveOnset* change = changeWithinWindow()) onset = *change;
   // The topics' clock offsets, once, on the first window with enough strokes (unless configured).
   if (!config_.topicDelaysSet() && !delay_estimate_) {
     TopicDelayEstimate estimate = estimateTopicDelays(grid, config_);
@@ -108,7 +135,8 @@ void LiveModelMonitor::startRanking() {
       delay_estimate_ = estimate;
     }
   }
-  job_ = std::async(std::launch::async, [grid = std::move(grid), config = config_, generation = generation_] {
+  job_ = std::async(std::launch::async, [grid = std::move(grid), config = config_, generation = generation_,
+                                         onset = std::move(onset)] {
     const auto started = std::chrono::steady_clock::now();
     Job job;
     job.generation = generation;
@@ -117,6 +145,13 @@ void LiveModelMonitor::startRanking() {
     job.ranking.result = rankEffects(grid, strokes, config);
     // The formula search only where structured error is left, as offline without --propose.
     if (job.ranking.result.residual_unexplained) addFormulaProposals(grid, strokes, config, &job.ranking.result);
+    if (onset) {
+      job.ranking.result.conclusion = onset->onset.explanation + ". " +
+                                      (strokes.cycles < EffectRankingOptions().min_held_out_cycles
+                                           ? "The effects are ranked once more cycles since then are in."
+                                           : job.ranking.result.conclusion);
+      job.ranking.onset = onset;
+    }
     job.ranking.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     return job;
   });

@@ -76,6 +76,20 @@ TEST(StepResponse, T63FromTheRecordingMatchesTheNoiseFreeTraceWithinTenPercent) 
   }
 }
 
+// The offline analysis of a plant at rest with its command held, then stepped down by 0.5 V for 1.5 s.
+OfflineResult analyzeStepAtRest(const SimulatorConfig& plant, const IdentificationConfig& config) {
+  OfflineAnalysis analysis(config);
+  DieCushionSimulator simulator(plant);
+  std::vector<SimulatedMeasurement> messages;
+  simulator.run(0.7, &messages);
+  simulator.setValveCommandOverride(simulator.state().u);
+  simulator.run(0.3, &messages);
+  simulator.setValveCommandOverride(simulator.state().u - 0.5);
+  simulator.run(1.5, &messages);
+  for (const auto& m : messages) analysis.push(m.stream, m.sample);
+  return analysis.finish();
+}
+
 // analyze_bag's side: a step test in a recording gives step_response, and a sampling time above a tenth
 // of t63 a warning that names the value to set.
 TEST(StepResponse, ASamplingTimeAboveATenthOfT63IsWarnedAbout) {
@@ -87,16 +101,7 @@ TEST(StepResponse, ASamplingTimeAboveATenthOfT63IsWarnedAbout) {
     config.identification_period = std::max(config.identification_period, period);
     config.velocity_window = std::max(config.velocity_window, 2 * period);
     config.resampler.max_gap = std::max(config.resampler.max_gap, 5 * period);
-    OfflineAnalysis analysis(config);
-    DieCushionSimulator simulator(plant);
-    std::vector<SimulatedMeasurement> messages;
-    simulator.run(0.7, &messages);
-    simulator.setValveCommandOverride(simulator.state().u);
-    simulator.run(0.3, &messages);
-    simulator.setValveCommandOverride(simulator.state().u - 0.5);
-    simulator.run(1.5, &messages);
-    for (const auto& m : messages) analysis.push(m.stream, m.sample);
-    const OfflineResult result = analysis.finish();
+    const OfflineResult result = analyzeStepAtRest(plant, config);
     ASSERT_EQ(result.step_responses.size(), 1u) << "sample period " << period;
     const bool warned = hasWarning(result.warnings, WarningCode::kSamplingTooCoarse);
     EXPECT_EQ(warned, period > result.step_responses.front().recommendedMaxSamplingTime()) << period;
@@ -118,16 +123,7 @@ TEST(StepResponse, AFineGridWithAVelocityDerivedFromANoisyPositionStillFindsTheS
     config.resampler.sample_period = 0.001;
     config.identification_period = 0.01;
     config.velocity_window = 0.002;
-    OfflineAnalysis analysis(config);
-    DieCushionSimulator simulator(plant);
-    std::vector<SimulatedMeasurement> messages;
-    simulator.run(0.7, &messages);
-    simulator.setValveCommandOverride(simulator.state().u);
-    simulator.run(0.3, &messages);
-    simulator.setValveCommandOverride(simulator.state().u - 0.5);
-    simulator.run(1.5, &messages);
-    for (const auto& m : messages) analysis.push(m.stream, m.sample);
-    const OfflineResult result = analysis.finish();
+    const OfflineResult result = analyzeStepAtRest(plant, config);
     ASSERT_EQ(result.step_responses.size(), 1u) << "the step at rest is found on the 1 ms grid";
     EXPECT_GT(result.step_responses.front().t63, 0.0);
   }

@@ -10,6 +10,9 @@
 
 namespace die_cushion_ident {
 
+/// Press cycles findEffectOnset needs at least (two each side of a step, and the scatter within them).
+constexpr int kOnsetMinimumCycles = 6;
+
 /// A library effect that starts, or steps, within one recording: a seal that starts leaking, air drawn in
 /// after a pump was changed. A model with constant parameters averages over it ("bulk_modulus drifts
 /// 1.71e9 -> 1.27e9"); this names the effect and the press cycle it starts in.
@@ -40,11 +43,13 @@ struct EffectOnset {
 /// its step on, runs free closest to them. Nothing with fewer than 6 cycles. The fits on up to `jobs`
 /// threads (0: one per core). On a grid of every `cycle_stride`-th cycle of a recording that began at
 /// `recording_start` [s] (EvenlyThinnedCycles; NaN: at the grid's first sample) the onset is told in the
-/// recording's cycles and time.
+/// recording's cycles and time; a grid whose first cycle is the recording's `first_cycle`-th (the live
+/// window, LiveChangePoint) tells it counted from there.
 std::optional<EffectOnset> findEffectOnset(const std::vector<GridSample>& grid,
                                            const StrokeSegmentation& strokes,
                                            const IdentificationConfig& config, double significance = 1e-3,
                                            int jobs = 1, int max_groups = 60, int cycle_stride = 1,
-                                           double recording_start = std::numeric_limits<double>::quiet_NaN());
+                                           double recording_start = std::numeric_limits<double>::quiet_NaN(),
+                                           int first_cycle = 0);
 
 }  // namespace die_cushion_ident

@@ -15,6 +15,7 @@
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
 #include "die_cushion_ident/core/model/stroke_phase.h"
+#include "die_cushion_ident/core/monitoring/live_change_point.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 namespace die_cushion_ident {
@@ -30,8 +31,11 @@ struct LiveMonitorSettings {
 /// One finished effect ranking of the live window (with the formula search where error is left).
 struct LiveRanking {
   EffectRankingResult result;
-  int cycles = 0;        ///< press cycles in the window
+  int cycles = 0;        ///< press cycles in the window (since `onset` where there is one)
   double seconds = 0.0;  ///< wall-clock duration of the ranking [s]
+  /// The plant changed within the window (LiveChangePoint): the ranking judged only the cycles from the
+  /// onset on, and its conclusion begins with the change.
+  std::optional<LiveOnset> onset;
 };
 
 /// The live model comparison of the node, free of ROS: runs the identified model freely next to the
@@ -40,6 +44,9 @@ struct LiveRanking {
 ///
 /// The ranking takes up to seconds on a long window, so it runs on a copy of the window (std::async):
 /// nothing that feeds samples waits for it. restart() (a new model) drops a ranking started before it.
+/// After every press cycle the window is checked for a change of the plant (LiveChangePoint); once one is
+/// found a ranking starts at once, on the cycles since the change only, and the rankings after it leave the
+/// cycles before the change out until they have left the window.
 class LiveModelMonitor {
  public:
   /// RLS updates (10 ms each, only while excited) before the comparison counts: about one stroke.
@@ -87,6 +94,17 @@ class LiveModelMonitor {
   const std::optional<EffectRankingResult>& ranking() const { return ranking_; }
   double lastRankingSeconds() const { return last_ranking_seconds_; }  ///< NaN before the first
   bool rankingRunning() const { return job_.valid(); }
+  /// Blocks until a running ranking and change check have finished (their results come with the next
+  /// sample), for a caller that feeds samples faster than real time (a test, a bag played at full speed).
+  void waitForJobs() const {
+    if (job_.valid()) job_.wait();
+    change_point_.waitForCheck();
+  }
+  /// The check for a change of the plant within the window, and the last change it found.
+  const LiveChangePoint& changePoint() const { return change_point_; }
+  /// The last change of the plant while the window still reaches back before it (the ranking leaves the
+  /// cycles before it out); null otherwise.
+  const LiveOnset* changeWithinWindow() const;
 
   // ---- the topics' clock offsets, estimated once on the first window with strokes ----
   const std::optional<TopicDelayEstimate>& topicDelayEstimate() const { return delay_estimate_; }
@@ -105,6 +123,8 @@ class LiveModelMonitor {
     int generation = 0;
   };
   void startRanking();
+  /// The window from the last change of the plant on: what the ranking judges.
+  std::vector<GridSample> currentPlantWindow() const;
   std::optional<LiveRanking> collectRanking();
 
   IdentificationConfig config_;
@@ -123,10 +143,12 @@ class LiveModelMonitor {
 
   std::deque<GridSample> window_;
   double last_ranking_time_ = -1e18;
+  bool ranking_now_ = false;  // the plant changed: rank the cycles since at once
   std::optional<EffectRankingResult> ranking_;
   double last_ranking_seconds_;
   std::future<Job> job_;
   int generation_ = 0;
+  LiveChangePoint change_point_;
 
   std::optional<TopicDelayEstimate> delay_estimate_;
   bool delays_pending_ = false;
