@@ -32,6 +32,7 @@
 #include "die_cushion_ident/core/analysis/verdict.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
+#include "csv_file.h"
 #include "output_files.h"
 
 namespace fs = std::filesystem;
@@ -147,9 +148,8 @@ std::string fingerprintOf(const std::string& bag, const Options& o, const std::s
 }
 
 std::string directoryFor(const std::string& bag, const Options& o) {
-  char hash[17];
-  std::snprintf(hash, sizeof(hash), "%016zx", std::hash<std::string>{}(bag));
-  return (fs::path(o.out) / "bags" / (fs::path(bag).stem().string() + "-" + std::string(hash, 8))).string();
+  const std::string hash = formatted(FMT_STRING("{:016x}"), std::hash<std::string>{}(bag));
+  return (fs::path(o.out) / "bags" / (fs::path(bag).stem().string() + "-" + hash.substr(0, 8))).string();
 }
 
 std::string analyzeBagPath() {
@@ -279,43 +279,42 @@ Recording readRecording(const BagJob& job) {
   return r;
 }
 
-std::string csvNumber(double v) { return std::isfinite(v) ? formatted(FMT_STRING("{:.9g}"), v) : ""; }
-
 void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Recording>& rows,
               const std::vector<std::string>& names, const std::vector<std::string>& effects,
               const std::string& config_name, bool temperatures) {
-  std::ofstream csv(files.add(path));
-  csv << "bag,start,start_stamp,duration,config";
-  for (const auto& n : names) csv << "," << n << "," << n << "_std";
-  csv << ",simulation_error_rms";
-  for (const auto& e : effects) csv << ",verdict_" << e;
+  constexpr int kDigits = 9;  // a parameter's tenth of a per mille is far inside its std
+  CsvFile csv(files.add(path));
+  csv.text("bag").text("start").text("start_stamp").text("duration").text("config");
+  for (const auto& n : names) csv.text(n).text(n + "_std");
+  csv.text("simulation_error_rms");
+  for (const auto& e : effects) csv.text("verdict_" + e);
   // Where the recordings hold the oil temperature: it, and each parameter at the reference temperature.
   if (temperatures) {
-    csv << ",oil_temperature";
-    for (const auto& n : names) csv << "," << n << "_at_reference," << n << "_at_reference_std";
+    csv.text("oil_temperature");
+    for (const auto& n : names) csv.text(n + "_at_reference").text(n + "_at_reference_std");
   }
-  csv << "\n";
+  csv.endLine();
+  const double missing = std::numeric_limits<double>::quiet_NaN();  // an empty field
   for (const auto& r : rows) {
-    csv << '"' << r.bag << "\"," << isoTime(r.start) << "," << formatted(FMT_STRING("{:.3f}"), r.start) << ","
-        << csvNumber(r.duration) << "," << config_name;
+    csv.quoted(r.bag).text(isoTime(r.start)).fixed(r.start, 3).number(r.duration, kDigits).text(config_name);
     for (const auto& n : names) {
       const auto p = std::find_if(r.parameters.begin(), r.parameters.end(), [&](const auto& q) { return q.name == n; });
-      csv << "," << (p != r.parameters.end() ? csvNumber(p->value) : "") << ","
-          << (p != r.parameters.end() ? csvNumber(p->std) : "");
+      const bool found = p != r.parameters.end();
+      csv.number(found ? p->value : missing, kDigits).number(found ? p->std : missing, kDigits);
     }
-    csv << "," << csvNumber(r.simulation_error_rms);
-    for (const auto& e : effects) csv << "," << (r.verdicts.count(e) ? r.verdicts.at(e) : "");
+    csv.number(r.simulation_error_rms, kDigits);
+    for (const auto& e : effects) csv.text(r.verdicts.count(e) ? r.verdicts.at(e) : "");
     if (temperatures) {
-      csv << "," << csvNumber(r.oil_temperature);
+      csv.number(r.oil_temperature, kDigits);
       for (const auto& n : names) {
         const auto p = r.at_reference.find(n);
-        csv << "," << (p != r.at_reference.end() ? csvNumber(p->second.value) : "") << ","
-            << (p != r.at_reference.end() ? csvNumber(p->second.std) : "");
+        const bool found = p != r.at_reference.end();
+        csv.number(found ? p->second.value : missing, kDigits).number(found ? p->second.std : missing, kDigits);
       }
     }
-    csv << "\n";
+    csv.endLine();
   }
-  closeChecked(csv, path);
+  csv.close();
 }
 
 // Which bags need analysing: a result is reused while its fingerprint (bag size and time, settings) holds.

@@ -241,12 +241,12 @@ HealthReport adequacyHealth(const LiveModelMonitor& m, double equation_error_rms
   }
   if (std::isfinite(m.changePoint().lastCheckSeconds())) {
     r.add("plant change check duration",
-          formatted("%.3f s per press cycle (own thread)", m.changePoint().lastCheckSeconds()));
+          formatted(FMT_STRING("{:.3f} s per press cycle (own thread)"), m.changePoint().lastCheckSeconds()));
   }
   if (const auto& change = m.changePoint().onset()) r.add("last plant change", change->onset.explanation);
   if (const LiveOnset* change = m.changeWithinWindow()) {
     where += "; the plant changed: " + change->onset.effect +
-             formatted(" from press cycle %.0f on", change->onset.cycle);
+             formatted(FMT_STRING(" from press cycle {} on"), change->onset.cycle);
   }
   if (const auto& ranking = m.ranking()) {
     r.add("effect ranking", ranking->conclusion);
