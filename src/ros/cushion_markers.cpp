@@ -70,8 +70,9 @@ visualization_msgs::MarkerArray cushionMarkers(const CylinderGeometry& geometry,
   text.pose.position.z = -0.3 * stroke;
   text.scale.z = 0.025;
   text.color.r = text.color.g = text.color.b = 1.0;
-  text.text = formatted(FMT_STRING("p = {:.1f} bar, x = {:.0f} mm, {}\nmodel error {:.2f} bar rms\n"),
-                        view.pressure * 1e-5, x * 1e3, strokePhaseName(view.phase), view.simulation_error * 1e-5);
+  text.text =
+      formatted(FMT_STRING("p = {:.1f} bar, x = {:.0f} mm, {}\nmodel error {:.2f} bar rms\n"),
+                view.pressure * 1e-5, x * 1e3, strokePhaseName(view.phase), view.simulation_error * 1e-5);
   for (const auto& p : estimate.parameters) text.text += line(p);
   array.markers.push_back(text);
   return array;

@@ -148,7 +148,8 @@ bool ValveExperimentServices::startStepTest(StartStepTest::Request& req, StartSt
   const StepTestRequest started =
       valve_.locked([](const ValveSupervisor& s) { return s.experiments().stepTest().request(); });
   step_time_ = valve_.locked([](const ValveSupervisor& s) { return s.experiments().stepTest().stepTime(); });
-  res.message = formatted(FMT_STRING("step test started: {:g} V"), started.step) + formatted(FMT_STRING(" from {:g} V"), started.offset);
+  res.message = formatted(FMT_STRING("step test started: {:g} V"), started.step) +
+                formatted(FMT_STRING(" from {:g} V"), started.offset);
   step_status_ = "running";
   step_failed_ = false;
   step_test_reported_ = false;

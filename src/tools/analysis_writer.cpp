@@ -546,8 +546,8 @@ static_assert(kComparisonDecimation == ModelAssessment::kModelledStride, "the co
 
 void writeComparisonCsv(const std::string& path, const OfflineResult& r, const std::vector<GridSample>& grid) {
   CsvFile csv(path);
-  for (const char* column : {"t", "measured_pressure", "modelled_pressure", "residual", "position", "velocity",
-                             "spool_position", "phase"}) {
+  for (const char* column : {"t", "measured_pressure", "modelled_pressure", "residual", "position",
+                             "velocity", "spool_position", "phase"}) {
     csv.text(column);
   }
   csv.endLine();
@@ -598,10 +598,15 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
   if (!r.ranking.proposals.empty()) {
     // For the report: each proposal's residual against its signal, with the fitted term drawn over it.
     CsvFile csv(files.add(directory + "/proposals.csv"));
-    csv.text("expression").text("signal").text("signal_value").text("residual_flow").text("term_flow").endLine();
+    csv.text("expression")
+        .text("signal")
+        .text("signal_value")
+        .text("residual_flow")
+        .text("term_flow")
+        .endLine();
     for (const auto& p : r.ranking.proposals) {
       for (std::size_t b = 0; b < p.bin_signal.size(); ++b) {
-        csv.quoted(p.spec()).text(p.signal).number(p.bin_signal[b], 8).number(p.bin_residual[b], 8);
+        csv.quoted(p.spec()).text(std::string(1, p.signal)).number(p.bin_signal[b], 8).number(p.bin_residual[b], 8);
         csv.number(p.bin_term[b], 8).endLine();
       }
     }

@@ -175,9 +175,10 @@ class SurveyThenAnalysis {
   }
   void chooseAndStart() {
     log_("choosing the sample period and filters from the recording's first " +
-         formatted(FMT_STRING("{:.0f} s"), survey_->messages().empty() ? 0.0
-                                                          : survey_->messages().back().second.stamp -
-                                                                survey_->messages().front().second.stamp));
+         formatted(FMT_STRING("{:.0f} s"),
+                   survey_->messages().empty()
+                       ? 0.0
+                       : survey_->messages().back().second.stamp - survey_->messages().front().second.stamp));
     choice_ = survey_->choose();
     for (const auto& setting : choice_->settings) {
       log_(setting.key + " = " + formatted(FMT_STRING("{:g}"), setting.value) + ": " + setting.reason);
@@ -398,9 +399,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   return pass;
 }
 
-std::string milliseconds(double seconds) {
-  return formatted(FMT_STRING("{:+.2f} ms"), seconds * 1e3);
-}
+std::string milliseconds(double seconds) { return formatted(FMT_STRING("{:+.2f} ms"), seconds * 1e3); }
 
 // The configuration file and the command line's model, checked; warnings for the geometry left at defaults.
 struct Configuration {

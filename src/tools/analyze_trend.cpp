@@ -27,12 +27,12 @@
 
 #include "argument_parser.h"
 #include "command_line.h"
+#include "csv_file.h"
 #include "die_cushion_ident/core/analysis/analysis_warning.h"
 #include "die_cushion_ident/core/analysis/parameter_trend.h"
 #include "die_cushion_ident/core/analysis/verdict.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
-#include "csv_file.h"
 #include "output_files.h"
 
 namespace fs = std::filesystem;
@@ -309,7 +309,8 @@ void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Rec
       for (const auto& n : names) {
         const auto p = r.at_reference.find(n);
         const bool found = p != r.at_reference.end();
-        csv.number(found ? p->second.value : missing, kDigits).number(found ? p->second.std : missing, kDigits);
+        csv.number(found ? p->second.value : missing, kDigits)
+            .number(found ? p->second.std : missing, kDigits);
       }
     }
     csv.endLine();
@@ -356,7 +357,8 @@ double analysePending(std::vector<BagJob>& jobs, const std::vector<std::size_t>&
     analyse(job, o, analyze_bag, threads_each);
     std::lock_guard<std::mutex> lock(log_mutex);
     log(std::to_string(++done) + " of " + std::to_string(pending.size()) + ": " +
-        fs::path(job.bag).filename().string() + (job.failed ? " skipped: " + job.reason : formatted(FMT_STRING(" ({:.1f} s)"), job.seconds)));
+        fs::path(job.bag).filename().string() +
+        (job.failed ? " skipped: " + job.reason : formatted(FMT_STRING(" ({:.1f} s)"), job.seconds)));
   });
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 }
@@ -442,11 +444,13 @@ int emitParameterChanges(const std::vector<Recording>& rows, const std::vector<s
     for (const ParameterChange& change : found) {
       const std::string start = isoTime(change.start_stamp);
       std::string words = explainChange(name, units[name], change, start.substr(0, 10));
-      if (tracking.at_reference) words += formatted(FMT_STRING(" (compared at {:.0f} degC)"), tracking.reference);
+      if (tracking.at_reference)
+        words += formatted(FMT_STRING(" (compared at {:.0f} degC)"), tracking.reference);
       yaml << YAML::Flow << YAML::BeginMap;
       yaml << YAML::Key << "parameter" << YAML::Value << name << YAML::Key << "shape" << YAML::Value << change.shape;
       yaml << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start;
-      yaml << YAML::Key << "start_stamp" << YAML::Value << formatted(FMT_STRING("{:.3f}"), change.start_stamp);
+      yaml << YAML::Key << "start_stamp" << YAML::Value
+           << formatted(FMT_STRING("{:.3f}"), change.start_stamp);
       yaml << YAML::Key << "alarm" << YAML::Value << YAML::DoubleQuoted << isoTime(change.alarm_stamp);
       yaml << YAML::Key << "before" << YAML::Value << change.before << YAML::Key << "after" << YAML::Value
            << change.after << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
@@ -471,15 +475,17 @@ void emitDetectableChanges(const std::vector<Recording>& rows, const std::vector
        << (tracking.at_reference ? "at_reference_temperature" : "as_recorded");
   if (tracking.at_reference) {
     yaml << YAML::Key << "reference_temperature" << YAML::Value << tracking.reference;
-    yaml << YAML::Key << "note" << YAML::Value
-         << formatted(FMT_STRING(
-                "each parameter compared at {:.0f} degC (carried there by the oil's law), the rest of the "
-                "temperature's influence regressed out over the baseline"),
-                tracking.reference) +
-                (tracking.with_temperature < rows.size()
-                     ? formatted(FMT_STRING("; {} recordings without an oil temperature left out"),
-                                 rows.size() - tracking.with_temperature)
-                     : std::string());
+    yaml
+        << YAML::Key << "note" << YAML::Value
+        << formatted(
+               FMT_STRING(
+                   "each parameter compared at {:.0f} degC (carried there by the oil's law), the rest of the "
+                   "temperature's influence regressed out over the baseline"),
+               tracking.reference) +
+               (tracking.with_temperature < rows.size()
+                    ? formatted(FMT_STRING("; {} recordings without an oil temperature left out"),
+                                rows.size() - tracking.with_temperature)
+                    : std::string());
   } else {
     yaml << YAML::Key << "note" << YAML::Value
          << "no recording holds an oil temperature (topic oil_temperature): the parameters are compared as "
@@ -533,10 +539,11 @@ int emitVerdictChanges(const std::vector<Recording>& rows, const std::vector<std
                               std::to_string(run_length) + " recordings, since " + start.substr(0, 10) +
                               ", and was not before: add it to the model (analyze_bag --effects), and see which of "
                               "its parameters changes";
-    yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "effect" << YAML::Value << effect << YAML::Key << "verdict"
-         << YAML::Value << verdictName(Verdict::kMissing) << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start
-         << YAML::Key << "start_stamp" << YAML::Value << formatted(FMT_STRING("{:.3f}"), missing[first].first) << YAML::Key
-         << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
+    yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "effect" << YAML::Value << effect << YAML::Key
+         << "verdict" << YAML::Value << verdictName(Verdict::kMissing) << YAML::Key << "start" << YAML::Value
+         << YAML::DoubleQuoted << start << YAML::Key << "start_stamp" << YAML::Value
+         << formatted(FMT_STRING("{:.3f}"), missing[first].first) << YAML::Key << "explanation" << YAML::Value
+         << YAML::DoubleQuoted << words << YAML::EndMap;
     log("change: " + words);
     ++changes;
   }

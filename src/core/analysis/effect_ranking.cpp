@@ -94,8 +94,8 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
       fitted = p.value;
       candidate.parameters.push_back(p);
       if (!(std::isfinite(p.value) && p.value >= info.lower_bound && p.value <= info.upper_bound)) {
-        implausible += "; the fit puts " + info.name + " at " + formatted(FMT_STRING("{:.3g}"), p.value) + " " + info.unit +
-                       ", outside its physical range: the data do not show this effect";
+        implausible += "; the fit puts " + info.name + " at " + formatted(FMT_STRING("{:.3g}"), p.value) +
+                       " " + info.unit + ", outside its physical range: the data do not show this effect";
       }
     }
     // The physics with the fitted value where it says more ("... at -0.41 %/K"), where it is plausible.
@@ -240,7 +240,8 @@ HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& im
       return {Verdict::kInconclusive,
               "; " + reduction + " less held-out error (" + formatted(FMT_STRING("{:.2f} bar"), 1e-5 * gain) +
                   "), but within twice the analysis's own resolution error of " +
-                  formatted(FMT_STRING("{:.2f} bar"), 1e-5 * options.resolution_error) + ": resolution-limited" +
+                  formatted(FMT_STRING("{:.2f} bar"), 1e-5 * options.resolution_error) +
+                  ": resolution-limited" +
                   (options.resolution_remedy.empty() ? std::string() : "; " + options.resolution_remedy)};
     }
     return {Verdict::kMissing, "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
@@ -248,16 +249,17 @@ HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& im
   if (test.error_reduction < options.not_needed_reduction) {
     return {Verdict::kNotNeeded, "; it changes the held-out error by only " + reduction};
   }
-  return {Verdict::kInconclusive, "; " + reduction + " less held-out error, but not consistently over the cycles (t = " +
-                              formatted(FMT_STRING("{:.2f}"), test.t_statistic) + ")"};
+  return {Verdict::kInconclusive, "; " + reduction +
+                                      " less held-out error, but not consistently over the cycles (t = " +
+                                      formatted(FMT_STRING("{:.2f}"), test.t_statistic) + ")"};
 }
 
 std::string holmDemotion(double error_reduction, double p_value, bool rejected, std::size_t tried,
                          const std::string& what) {
   if (rejected) return "";
   return "; " + formatted(FMT_STRING("{:.0f} %"), 100.0 * error_reduction) +
-         " less held-out error, but not significant once corrected for the " + std::to_string(tried) + " " + what +
-         " tried (Holm; one-sided p = " + formatted(FMT_STRING("{:.2g}"), p_value) + ")";
+         " less held-out error, but not significant once corrected for the " + std::to_string(tried) + " " +
+         what + " tried (Holm; one-sided p = " + formatted(FMT_STRING("{:.2g}"), p_value) + ")";
 }
 
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
@@ -271,8 +273,8 @@ double structuredErrorFloor(double noise_rms, const EffectRankingOptions& option
 std::string errorLeftInWords(double error_rms, double noise_rms, const EffectRankingOptions& options) {
   const double floor = structuredErrorFloor(noise_rms, options);
   const std::string left =
-      formatted(FMT_STRING("{:.2f} bar rms left on held-out cycles, {:.1f} x the noise of {:.2f} bar"), 1e-5 * error_rms,
-                noise_rms > 0.0 ? error_rms / noise_rms : 0.0, 1e-5 * noise_rms);
+      formatted(FMT_STRING("{:.2f} bar rms left on held-out cycles, {:.1f} x the noise of {:.2f} bar"),
+                1e-5 * error_rms, noise_rms > 0.0 ? error_rms / noise_rms : 0.0, 1e-5 * noise_rms);
   if (error_rms <= options.within_noise_factor * noise_rms) return left + ": within the noise";
   const std::string floor_words =
       formatted(FMT_STRING("the {:.2f} bar a model's own free run leaves ({:.0f} x the noise"), 1e-5 * floor,
@@ -310,7 +312,8 @@ std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cy
                          const EffectRankingOptions& options) {
   const std::string held_out_path = [&] {
     std::string text = formatted(FMT_STRING("{:.1f}"), ranking.base_error_rms * 1e-5);
-    for (const auto& step : ranking.steps) text += " -> " + formatted(FMT_STRING("{:.1f}"), step.held_out_error_rms * 1e-5);
+    for (const auto& step : ranking.steps)
+      text += " -> " + formatted(FMT_STRING("{:.1f}"), step.held_out_error_rms * 1e-5);
     return text + " bar rms on held-out cycles";
   }();
   if (!enough) {

@@ -417,7 +417,8 @@ std::string explainChange(const std::string& parameter, const std::string& unit,
   } else if (ratio > 0.0 && ratio <= 0.5) {
     size = formatted(FMT_STRING("has fallen {:.1f}-fold"), 1.0 / ratio);
   } else if (ratio > 0.0) {
-    size = (rose ? "has risen " : "has fallen ") + formatted(FMT_STRING("{:.0f} %"), 100.0 * std::abs(ratio - 1.0));
+    size = (rose ? "has risen " : "has fallen ") +
+           formatted(FMT_STRING("{:.0f} %"), 100.0 * std::abs(ratio - 1.0));
   } else {
     size = rose ? "has risen" : "has fallen";
   }

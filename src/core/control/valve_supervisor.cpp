@@ -55,9 +55,10 @@ std::string ValveSupervisor::startExperiment(ValveExperiments::Kind kind, Instan
 }
 
 std::string ValveSupervisor::feedForwardHoldsValve() const {
-  return formatted(FMT_STRING(
-      "the feed-forward adds {:.3f} V to the valve command; switch it off first (~enable_feed_forward "
-      "false) and wait for its ramp to 0 V"),
+  return formatted(
+      FMT_STRING(
+          "the feed-forward adds {:.3f} V to the valve command; switch it off first (~enable_feed_forward "
+          "false) and wait for its ramp to 0 V"),
       output_.last());
 }
 
@@ -70,10 +71,10 @@ void ValveSupervisor::superviseExperiment(Instant now, bool from_watchdog) {
   if (before == ValveExperiments::Kind::kNone) return;
   const std::string holder = experiments_.holder();
   if (from_watchdog && now.steady - command_sent_ > limits_.signal_timeout) {
-    experiments_.abort(
-        formatted(FMT_STRING("no command was sent for {:.0f} ms (limit {:.0f} ms): the command timer stalled (a "
-                  "stopped /clock, a blocked node)"),
-                  (now.steady - command_sent_) * 1e3, limits_.signal_timeout * 1e3));
+    experiments_.abort(formatted(
+        FMT_STRING("no command was sent for {:.0f} ms (limit {:.0f} ms): the command timer stalled (a "
+                   "stopped /clock, a blocked node)"),
+        (now.steady - command_sent_) * 1e3, limits_.signal_timeout * 1e3));
   } else {
     experiments_.supervise(now, condition(now));
   }
@@ -119,7 +120,8 @@ std::string ValveSupervisor::feedForwardBlocker(const PlantCondition& plant, Ins
            formatted(FMT_STRING("limit {:.0f} ms)"), timeout * 1e3);
   }
   if (!(now.steady - ff_updated_ <= timeout)) {
-    return formatted(FMT_STRING("no grid sample for {:.0f} ms "), std::min(now.steady - ff_updated_, 1e9) * 1e3) +
+    return formatted(FMT_STRING("no grid sample for {:.0f} ms "),
+                     std::min(now.steady - ff_updated_, 1e9) * 1e3) +
            formatted(FMT_STRING("(limit {:.0f} ms): the identification stalled"), timeout * 1e3);
   }
   return "";
@@ -162,7 +164,8 @@ void ValveSupervisor::watchClock(Instant now) {
   if (advanced > 0.0 && std::isfinite(advanced)) clock_advanced_ = now.steady;
   if (advanced < -kClockBackTolerance) {
     // The sweep's sine and the step test's timing run on this clock: what they measured no longer fits.
-    clock_jump_ = formatted(FMT_STRING("the clock jumped back by {:.3f} s (a bag played again, a clock set)"), -advanced);
+    clock_jump_ = formatted(FMT_STRING("the clock jumped back by {:.3f} s (a bag played again, a clock set)"),
+                            -advanced);
     clock_trusted_from_ = now.steady + 2.0 * limits_.signal_timeout;
   }
   if (now.steady - clock_advanced_ > limits_.signal_timeout) {

@@ -47,8 +47,9 @@ HealthReport inputHealth(const InputState& in) {
     r.summary(HealthLevel::kError,
               "stale: silent for " + formatted(FMT_STRING("{:.2f} s"), age) + " while the other inputs run");
   } else if (in.all_inputs_silent_for > kInputSilenceLimit) {
-    r.summary(HealthLevel::kError,
-              "no input for " + formatted(FMT_STRING("{:.2f} s"), in.all_inputs_silent_for) + " (all three topics silent)");
+    r.summary(HealthLevel::kError, "no input for " +
+                                       formatted(FMT_STRING("{:.2f} s"), in.all_inputs_silent_for) +
+                                       " (all three topics silent)");
   } else if (in.stream == InputStream::kValve && !(in.spool_age < 1.0)) {
     r.summary(HealthLevel::kWarn, "spool position not measured (NaN): predicted with the valve model");
   } else if (in.rejected > 0) {
@@ -73,7 +74,8 @@ HealthReport oilTemperatureHealth(const OilTemperatureState& state) {
   r.add("last rejection", state.last_rejection.empty() ? "none" : state.last_rejection);
   r.add("rate [Hz]", formatted(FMT_STRING("{:.2f}"), h.rate()));
   r.add("latest [degC]", in.any() ? formatted(FMT_STRING("{:.2f}"), latest) : std::string("none"));
-  r.add("range [degC]", in.any() ? formatted(FMT_STRING("{:.1f}"), in.lowest()) + " ... " + formatted(FMT_STRING("{:.1f}"), in.highest())
+  r.add("range [degC]", in.any() ? formatted(FMT_STRING("{:.1f}"), in.lowest()) + " ... " +
+                                       formatted(FMT_STRING("{:.1f}"), in.highest())
                                  : std::string("none"));
   r.add("implausible values", h.implausible);
   r.add("wild stamps", h.wild_stamps);
@@ -108,7 +110,8 @@ HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimat
   double worst_relative_std = 0.0;
   std::string problem;
   for (const auto& p : e.parameters) {
-    r.add(p.name + " [" + p.unit + "]", formatted(FMT_STRING("{:.4g}"), p.value) + " +/- " + formatted(FMT_STRING("{:.2g}"), p.std));
+    r.add(p.name + " [" + p.unit + "]",
+          formatted(FMT_STRING("{:.4g}"), p.value) + " +/- " + formatted(FMT_STRING("{:.2g}"), p.std));
     if (problem.empty() && (!std::isfinite(p.value) || !std::isfinite(p.std)))
       problem = p.name + " is not finite";
     if (p.value != 0.0) worst_relative_std = std::max(worst_relative_std, std::abs(p.std / p.value));
@@ -128,7 +131,8 @@ HealthReport estimatorHealth(const HydraulicModel& model, const HydraulicEstimat
     r.summary(HealthLevel::kWarn, "not pinned down yet: " + uncertain.front());
   } else if (worst_relative_std > kConvergedRelativeStd) {
     r.summary(HealthLevel::kWarn, "converging: a parameter still has " +
-                                      formatted(FMT_STRING("{:.0f} %"), 100 * worst_relative_std) + " relative std");
+                                      formatted(FMT_STRING("{:.0f} %"), 100 * worst_relative_std) +
+                                      " relative std");
   } else {
     r.summary(HealthLevel::kOk, "converged");
   }
@@ -139,9 +143,10 @@ HealthReport valveHealth(const ValveSweep& sweep, const ServoValveParameters& v,
                          const ServoValveFit& last_sweep, const ServoValveFit& f) {
   HealthReport r;
   r.add("sweep", sweepStateName(sweep.state()));
-  r.add("model used for spool prediction",
-        formatted(FMT_STRING("{:.1f} Hz"), v.natural_frequency) + ", D " + formatted(FMT_STRING("{:.2f}"), v.damping) + ", K " +
-            formatted(FMT_STRING("{:.4g} 1/V"), v.gain) + ", Td " + formatted(FMT_STRING("{:.2f} ms"), v.dead_time * 1e3));
+  r.add("model used for spool prediction", formatted(FMT_STRING("{:.1f} Hz"), v.natural_frequency) + ", D " +
+                                               formatted(FMT_STRING("{:.2f}"), v.damping) + ", K " +
+                                               formatted(FMT_STRING("{:.4g} 1/V"), v.gain) + ", Td " +
+                                               formatted(FMT_STRING("{:.2f} ms"), v.dead_time * 1e3));
   if (sweep.running()) {
     r.add("frequency [Hz]", formatted(FMT_STRING("{:.1f}"), sweep.currentFrequency()));
     r.add("progress",
@@ -186,21 +191,23 @@ HealthReport valveExperimentsHealth(const ValveSupervisor& supervisor, Instant n
                                                          : "paused while " + holder + " holds the valve");
   const PlantCondition plant = supervisor.condition(now);
   const auto age = [](double seconds) {
-    return std::isfinite(seconds) ? formatted(FMT_STRING("{:.1f}"), seconds * 1e3) : std::string("never received");
+    return std::isfinite(seconds) ? formatted(FMT_STRING("{:.1f}"), seconds * 1e3)
+                                  : std::string("never received");
   };
   r.add("pressure arrived [ms ago]", age(plant.pressure_age));
   r.add("position arrived [ms ago]", age(plant.position_age));
   r.add("valve arrived [ms ago]", age(plant.valve_age));
   r.add("spool arrived [ms ago]", age(plant.spool_age));
-  r.add("supervision timeout [ms]", formatted(FMT_STRING("{:.1f}"), supervisor.limits().signal_timeout * 1e3));
+  r.add("supervision timeout [ms]",
+        formatted(FMT_STRING("{:.1f}"), supervisor.limits().signal_timeout * 1e3));
   r.add("clocks", plant.clock_problem.empty() ? "the stamps agree with the clock" : plant.clock_problem);
   r.add("last refusal", experiments.lastRefusal().empty() ? "none" : experiments.lastRefusal());
   r.add("last ended", experiments.lastEnd().empty() ? "none" : experiments.lastEnd());
   if (const auto& fault = supervisor.lastFault()) {
     r.add("last fault", fault->output + " stopped: " + fault->reason);
-    r.add("last fault: safe value after [ms]", std::isnan(fault->safe_after)
-                                                   ? std::string("not yet")
-                                                   : formatted(FMT_STRING("{:.1f}"), fault->safe_after * 1e3));
+    r.add("last fault: safe value after [ms]",
+          std::isnan(fault->safe_after) ? std::string("not yet")
+                                        : formatted(FMT_STRING("{:.1f}"), fault->safe_after * 1e3));
   }
   const double since_refusal = now.steady - experiments.lastRefusalTime();
   if (!holder.empty()) {
@@ -251,8 +258,9 @@ HealthReport adequacyHealth(const LiveModelMonitor& m, double equation_error_rms
   if (const auto& ranking = m.ranking()) {
     r.add("effect ranking", ranking->conclusion);
     for (const auto& c : ranking->candidates) {
-      r.add("candidate " + c.effect, verdictName(c.verdict) + std::string(", ") +
-                                         formatted(FMT_STRING("{:.0f} % less error"), 100 * c.error_reduction));
+      r.add("candidate " + c.effect,
+            verdictName(c.verdict) + std::string(", ") +
+                formatted(FMT_STRING("{:.0f} % less error"), 100 * c.error_reduction));
     }
     if (!ranking->candidates.empty() && ranking->candidates.front().verdict == Verdict::kMissing) {
       where += "; suspected missing effect: " + ranking->candidates.front().effect;
@@ -277,10 +285,11 @@ HealthReport adequacyHealth(const LiveModelMonitor& m, double equation_error_rms
     r.summary(HealthLevel::kOk, "not enough data yet: " + why);
   } else if (rms > error_error || rms > warn_error) {
     r.summary(rms > error_error ? HealthLevel::kError : HealthLevel::kWarn,
-              "the model misses the pressure by " + formatted(FMT_STRING("{:.1f} bar"), rms * 1e-5) + " rms, " + where);
+              "the model misses the pressure by " + formatted(FMT_STRING("{:.1f} bar"), rms * 1e-5) +
+                  " rms, " + where);
   } else {
-    r.summary(HealthLevel::kOk,
-              "the model follows the pressure within " + formatted(FMT_STRING("{:.1f} bar"), rms * 1e-5) + " rms");
+    r.summary(HealthLevel::kOk, "the model follows the pressure within " +
+                                    formatted(FMT_STRING("{:.1f} bar"), rms * 1e-5) + " rms");
   }
   return r;
 }
@@ -302,10 +311,12 @@ HealthReport timingHealth(const TimingState& t) {
   if (t.time_base_restarts > 0 && t.since_restart < kRestartWarnFor) {
     r.summary(
         HealthLevel::kWarn,
-        formatted(FMT_STRING("the stamps jumped back {:.1f} s ago (rosbag play --loop, or a driver restarted): the "
-                  "identification, the model comparison and the ranking started over from the initial values "
-                  "({:.0f} restarts so far)"),
-                  t.since_restart, static_cast<double>(t.time_base_restarts)));
+        formatted(
+            FMT_STRING(
+                "the stamps jumped back {:.1f} s ago (rosbag play --loop, or a driver restarted): the "
+                "identification, the model comparison and the ranking started over from the initial values "
+                "({:.0f} restarts so far)"),
+            t.since_restart, static_cast<double>(t.time_base_restarts)));
     return r;
   }
   if (t.delays_configured && !t.estimate) {
@@ -331,7 +342,8 @@ HealthReport timingHealth(const TimingState& t) {
     r.summary(HealthLevel::kWarn, valveTimingWarning(t.estimate->delays[2], true));
   } else if (largest > kLargeTopicDelay) {
     r.summary(HealthLevel::kWarn,
-              "topics stamped by different clocks: up to " + formatted(FMT_STRING("{:.1f} ms"), largest * 1e3) +
+              "topics stamped by different clocks: up to " +
+                  formatted(FMT_STRING("{:.1f} ms"), largest * 1e3) +
                   " apart (estimated and corrected); stamp at the measurement or set ~topic_delays");
   } else {
     r.summary(HealthLevel::kOk,
@@ -349,11 +361,13 @@ HealthReport stepTestHealth(const std::optional<StepResponse>& response, const s
   }
   const StepResponse& s = *response;
   const bool too_slow = sample_period > s.recommendedMaxSamplingTime();
-  r.summary(too_slow ? HealthLevel::kWarn : HealthLevel::kOk,
-            too_slow ? formatted(FMT_STRING("sample_period {:.4g} s exceeds 0.1 t63"), sample_period) +
-                           formatted(FMT_STRING(" = {:.4g} s: the identification cannot resolve the pressure build-up"),
-                                     s.recommendedMaxSamplingTime())
-                     : status);
+  r.summary(
+      too_slow ? HealthLevel::kWarn : HealthLevel::kOk,
+      too_slow
+          ? formatted(FMT_STRING("sample_period {:.4g} s exceeds 0.1 t63"), sample_period) +
+                formatted(FMT_STRING(" = {:.4g} s: the identification cannot resolve the pressure build-up"),
+                          s.recommendedMaxSamplingTime())
+          : status);
   r.add("t63 [s]", formatted(FMT_STRING("{:g}"), s.t63));
   r.add("recommended max sampling time [s]", formatted(FMT_STRING("{:g}"), s.recommendedMaxSamplingTime()));
   r.add("step voltage [V]", formatted(FMT_STRING("{:g}"), s.step_voltage));

@@ -46,9 +46,10 @@ void setResolution(IdentificationConfig& c, const Resolution& r) {
 }
 
 std::string describe(const Resolution& r) {
-  return formatted(FMT_STRING(
-      "sample_period {:.3g} ms, moving_average_width {}, derivative_width {}, identification_period "
-      "{:.3g} ms, velocity_window {:.3g} ms"),
+  return formatted(
+      FMT_STRING(
+          "sample_period {:.3g} ms, moving_average_width {}, derivative_width {}, identification_period "
+          "{:.3g} ms, velocity_window {:.3g} ms"),
       1e3 * r.sample_period, r.moving_average_width, r.derivative_width, 1e3 * r.identification_period,
       1e3 * r.velocity_window);
 }
@@ -179,10 +180,11 @@ void LiveIdentification::surveyMessage(InputStream stream, const StreamSample& s
   if (survey_->push(stream, sample)) return;
   // The study costs a few tenths of a second: on its own thread, the identification goes on meanwhile.
   study_ = std::async(std::launch::async, [survey = std::move(survey_)] { return survey->choose(); });
-  event(HealthLevel::kOk, LiveEventCode::kSurveyed,
-        formatted(FMT_STRING("surveyed the first {:.0f} s of messages: choosing the sample period and filters "
-                  "from them"),
-                  settings_.survey_seconds));
+  event(
+      HealthLevel::kOk, LiveEventCode::kSurveyed,
+      formatted(FMT_STRING("surveyed the first {:.0f} s of messages: choosing the sample period and filters "
+                           "from them"),
+                settings_.survey_seconds));
 }
 
 void LiveIdentification::collectStudy() {
@@ -206,15 +208,16 @@ void LiveIdentification::adopt(const SettingsChoice& choice) {
   if (delays_estimated) {
     next.topic_delays = choice.config.topic_delays;
     const auto applied = next.appliedTopicDelays();
-    extra += formatted(FMT_STRING("; clock offsets position {:+.2f} ms, valve {:+.2f} ms against pressure"), 1e3 * applied[1],
-                       1e3 * applied[2]);
+    extra += formatted(FMT_STRING("; clock offsets position {:+.2f} ms, valve {:+.2f} ms against pressure"),
+                       1e3 * applied[1], 1e3 * applied[2]);
   }
   const bool valve_changed = choice.valve_from_operation && !valve_from_sweep_;
   if (valve_changed) {
     next.valve = choice.config.valve;
     next.valve_model_drives_free_run = choice.config.valve_model_drives_free_run;
-    extra += formatted(FMT_STRING("; valve model from the operation ({:.0f} Hz, damping {:.2f}, dead time {:.2f} ms)"),
-                       next.valve.natural_frequency, next.valve.damping, 1e3 * next.valve.dead_time);
+    extra += formatted(
+        FMT_STRING("; valve model from the operation ({:.0f} Hz, damping {:.2f}, dead time {:.2f} ms)"),
+        next.valve.natural_frequency, next.valve.damping, 1e3 * next.valve.dead_time);
   }
   // A new grid, or offsets that move by more than a quarter of a sample period, restart the identification.
   // Smaller moves (within the stamps' jitter) and a new valve model alone are handed to the running pipeline
@@ -252,9 +255,10 @@ void LiveIdentification::applyDelayCorrection() {
   if (!delays) return;
   config_.topic_delays = *delays;
   event(HealthLevel::kWarn, LiveEventCode::kClockOffsetCorrected,
-        formatted(FMT_STRING(
-            "the topics' stamps are offset (position {:+.2f} ms, valve {:+.2f} ms against pressure, estimated "
-            "from the data): corrected, identification restarted; set ~topic_delays to fix them"),
+        formatted(
+            FMT_STRING("the topics' stamps are offset (position {:+.2f} ms, valve {:+.2f} ms against "
+                       "pressure, estimated "
+                       "from the data): corrected, identification restarted; set ~topic_delays to fix them"),
             config_.topic_delays[1] * 1e3, config_.topic_delays[2] * 1e3));
   rebuild();
 }
@@ -315,10 +319,11 @@ HealthReport LiveIdentification::settingsHealth() const {
   if (survey_) {
     const auto& kept = survey_->messages();
     const double seconds = kept.size() > 1 ? kept.back().second.stamp - kept.front().second.stamp : 0.0;
-    r.summary(HealthLevel::kOk,
-              formatted(FMT_STRING("surveying the recording to choose the sample period and filters: {:.0f} of "
-                        "{:.0f} s (the configured or default settings run meanwhile)"),
-                        std::max(seconds, 0.0), settings_.survey_seconds));
+    r.summary(
+        HealthLevel::kOk,
+        formatted(FMT_STRING("surveying the recording to choose the sample period and filters: {:.0f} of "
+                             "{:.0f} s (the configured or default settings run meanwhile)"),
+                  std::max(seconds, 0.0), settings_.survey_seconds));
     return r;
   }
   if (study_.valid()) {

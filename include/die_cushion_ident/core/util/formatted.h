@@ -21,8 +21,9 @@ namespace die_cushion_ident {
 /// else at compile time.
 template <typename Pattern, typename... Args>
 std::string formatted(const Pattern& pattern, Args&&... args) {
-  static_assert(fmt::detail::is_compile_string<Pattern>::value,
-                "wrap the pattern in FMT_STRING(\"...\"): it is then checked against the arguments at compile time");
+  static_assert(
+      fmt::detail::is_compile_string<Pattern>::value,
+      "wrap the pattern in FMT_STRING(\"...\"): it is then checked against the arguments at compile time");
   return fmt::format(pattern, std::forward<Args>(args)...);
 }
 
