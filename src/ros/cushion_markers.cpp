@@ -2,7 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
 
@@ -22,11 +23,8 @@ visualization_msgs::Marker marker(int id, int type, const std::string& frame, co
 }
 
 std::string line(const IdentifiedParameter& p) {
-  char buffer[160];
   const double relative = p.value != 0.0 ? 100.0 * std::abs(p.std / p.value) : 0.0;
-  std::snprintf(buffer, sizeof(buffer), "%s = %.4g %s (+/- %.1f %%)\n", p.name.c_str(), p.value,
-                p.unit.c_str(), relative);
-  return buffer;
+  return formatted(FMT_STRING("{} = {:.4g} {} (+/- {:.1f} %)\n"), p.name, p.value, p.unit, relative);
 }
 
 }  // namespace
@@ -72,10 +70,9 @@ visualization_msgs::MarkerArray cushionMarkers(const CylinderGeometry& geometry,
   text.pose.position.z = -0.3 * stroke;
   text.scale.z = 0.025;
   text.color.r = text.color.g = text.color.b = 1.0;
-  char header[200];
-  std::snprintf(header, sizeof(header), "p = %.1f bar, x = %.0f mm, %s\nmodel error %.2f bar rms\n",
+  text.text =
+      formatted(FMT_STRING("p = {:.1f} bar, x = {:.0f} mm, {}\nmodel error {:.2f} bar rms\n"),
                 view.pressure * 1e-5, x * 1e3, strokePhaseName(view.phase), view.simulation_error * 1e-5);
-  text.text = header;
   for (const auto& p : estimate.parameters) text.text += line(p);
   array.markers.push_back(text);
   return array;

@@ -11,9 +11,9 @@ namespace die_cushion_ident {
 namespace {
 
 std::string describe(const NodeSettings& s) {
-  return formatted("model adequacy warns above %.2f bar, errs above %.2f bar", s.adequacy_warn_error * 1e-5,
-                   s.adequacy_error_error * 1e-5) +
-         formatted("; effect ranking every %g s over the last %g s", s.effect_ranking_period,
+  return formatted(FMT_STRING("model adequacy warns above {:.2f} bar, errs above {:.2f} bar"),
+                   s.adequacy_warn_error * 1e-5, s.adequacy_error_error * 1e-5) +
+         formatted(FMT_STRING("; effect ranking every {:g} s over the last {:g} s"), s.effect_ranking_period,
                    s.effect_ranking_window);
 }
 

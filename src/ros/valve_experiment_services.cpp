@@ -82,7 +82,7 @@ bool ValveExperimentServices::startSweep(StartSweep::Request& req, StartSweep::R
   }
   res.expected_duration = request.totalDuration();
   res.message = "sweep started: " + std::to_string(request.frequencies.size()) + " frequencies, about " +
-                formatted("%.1f", res.expected_duration) + " s";
+                formatted(FMT_STRING("{:.1f}"), res.expected_duration) + " s";
   sweep_reported_ = false;
   published_points_ = 0;
   ROS_INFO("die_cushion_ident: %s", res.message.c_str());
@@ -148,7 +148,8 @@ bool ValveExperimentServices::startStepTest(StartStepTest::Request& req, StartSt
   const StepTestRequest started =
       valve_.locked([](const ValveSupervisor& s) { return s.experiments().stepTest().request(); });
   step_time_ = valve_.locked([](const ValveSupervisor& s) { return s.experiments().stepTest().stepTime(); });
-  res.message = formatted("step test started: %g V", started.step) + formatted(" from %g V", started.offset);
+  res.message = formatted(FMT_STRING("step test started: {:g} V"), started.step) +
+                formatted(FMT_STRING(" from {:g} V"), started.offset);
   step_status_ = "running";
   step_failed_ = false;
   step_test_reported_ = false;
@@ -176,7 +177,7 @@ void ValveExperimentServices::onGridSample(double t) {
     if (std::abs(r.start - step_time_) > 0.05) continue;
     last_step_response_ = r;
     step_failed_ = false;
-    step_status_ = formatted("t63 %.1f ms", r.t63 * 1e3);
+    step_status_ = formatted(FMT_STRING("t63 {:.1f} ms"), r.t63 * 1e3);
     ROS_INFO("die_cushion_ident: step test: %.1f -> %.1f bar, t63 %.1f ms (sample_period at most %.2f ms)",
              r.initial_pressure * 1e-5, r.final_pressure * 1e-5, r.t63 * 1e3,
              r.recommendedMaxSamplingTime() * 1e3);

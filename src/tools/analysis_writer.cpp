@@ -2,7 +2,6 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -11,6 +10,7 @@
 #include <stdexcept>
 
 #include "bag_stream_writer.h"
+#include "csv_file.h"
 #include "die_cushion_ident/FrequencyResponse.h"
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
@@ -211,7 +211,7 @@ void emitInput(YAML::Emitter& out, const AnalysisInput& input, const OfflineResu
   static const char* kNames[kInputStreamCount] = {"pressure", "position", "valve"};
   out << YAML::Key << "input" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "bag" << YAML::Value << input.bag;
-  out << YAML::Key << "start" << YAML::Value << formatted("%.3f", input.start);
+  out << YAML::Key << "start" << YAML::Value << formatted(FMT_STRING("{:.3f}"), input.start);
   out << YAML::Key << "duration" << YAML::Value << input.duration;
   out << YAML::Key << "messages" << YAML::Value << r.messages;
   out << YAML::Key << "records_unreadable" << YAML::Value << input.records_unreadable;
@@ -519,78 +519,23 @@ std::string emitSummary(const AnalysisInput& input, const IdentificationConfig& 
   return out.c_str();
 }
 
-// A CSV field: the number, or empty where it could not be computed (never nan / inf).
-struct Field {
-  double value;
-};
-std::ostream& operator<<(std::ostream& out, Field f) {
-  if (std::isfinite(f.value)) out << f.value;
-  return out;
-}
-
-/// A CSV file written through std::to_chars into a buffer: the same text as an ostream with precision 10
-/// (%.10g; stamps %.6f) at a fraction of the cost, which matters for the hundreds of thousands of rows of
-/// an hour's recording.
-class CsvFile {
- public:
-  explicit CsvFile(std::string path) : path_(std::move(path)), file_(path_) { buffer_.reserve(kFlushSize + 256); }
-  CsvFile& text(const std::string& text) {
-    buffer_ += text;
-    return *this;
-  }
-  /// A value with 10 significant digits; empty when not finite.
-  CsvFile& field(double value) {
-    if (std::isfinite(value)) append(value, std::chars_format::general, 10);
-    return *this;
-  }
-  /// Seconds since 1970 to the microsecond (16 digits, more than a value's 10).
-  CsvFile& stamp(double t) {
-    append(t, std::chars_format::fixed, 6);
-    return *this;
-  }
-  CsvFile& comma() {
-    buffer_ += ',';
-    return *this;
-  }
-  void endLine() {
-    buffer_ += '\n';
-    if (buffer_.size() >= kFlushSize) flush();
-  }
-  void close() {
-    flush();
-    closeChecked(file_, path_);
-  }
-
- private:
-  static constexpr std::size_t kFlushSize = 1 << 16;
-  void append(double value, std::chars_format format, int precision) {
-    char digits[64];
-    const auto result = std::to_chars(digits, digits + sizeof(digits), value, format, precision);
-    buffer_.append(digits, result.ptr);
-  }
-  void flush() {
-    file_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
-    buffer_.clear();
-  }
-  std::string path_;
-  std::ofstream file_;
-  std::string buffer_;
-};
+/// Seconds since 1970 to the microsecond in the CSVs (16 digits, more than a value's 10).
+constexpr int kStampDecimals = 6;
 
 void writeEstimatesCsv(const std::string& path, const OfflineResult& r, const HydraulicModel& model) {
   CsvFile csv(path);
   csv.text("t");
   for (int i = 0; i < model.parameterCount(); ++i) {
     const std::string& name = model.parameterInfos()[i].name;
-    csv.comma().text(name).comma().text(name + "_std");
+    csv.text(name).text(name + "_std");
   }
-  csv.text(",equation_error_rms").endLine();
+  csv.text("equation_error_rms").endLine();
   EstimateSeries::Reader step(r.estimates);
   const int parameters = r.estimates.parameters();
   while (step.next()) {
-    csv.stamp(step.t());
-    for (int j = 0; j < parameters; ++j) csv.comma().field(step.value(j)).comma().field(step.std(j));
-    csv.comma().field(step.equationError()).endLine();
+    csv.fixed(step.t(), kStampDecimals);
+    for (int j = 0; j < parameters; ++j) csv.number(step.value(j)).number(step.std(j));
+    csv.number(step.equationError()).endLine();
   }
   csv.close();
 }
@@ -601,15 +546,19 @@ static_assert(kComparisonDecimation == ModelAssessment::kModelledStride, "the co
 
 void writeComparisonCsv(const std::string& path, const OfflineResult& r, const std::vector<GridSample>& grid) {
   CsvFile csv(path);
-  csv.text("t,measured_pressure,modelled_pressure,residual,position,velocity,spool_position,phase").endLine();
+  for (const char* column : {"t", "measured_pressure", "modelled_pressure", "residual", "position",
+                             "velocity", "spool_position", "phase"}) {
+    csv.text(column);
+  }
+  csv.endLine();
   const auto& modelled = r.assessment.modelled;
   for (std::size_t k = 0; k < modelled.size() && comparisonIndex(k) < grid.size(); ++k) {
     const std::size_t i = comparisonIndex(k);
     const GridSample& g = grid[i];
     // The residual and phase name as the message has them.
     const ModelComparison msg = toModelComparisonMsg(g, modelled[k], r.strokes.phase[i], 0.0, 0.0, ros::Time());
-    csv.stamp(g.t).comma().field(g.p).comma().field(modelled[k]).comma().field(msg.residual).comma();
-    csv.field(g.x).comma().field(g.v).comma().field(g.y).comma().text(msg.phase_name).endLine();
+    csv.fixed(g.t, kStampDecimals).number(g.p).number(modelled[k]).number(msg.residual);
+    csv.number(g.x).number(g.v).number(g.y).text(msg.phase_name).endLine();
   }
   csv.close();
 }
@@ -619,23 +568,28 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
                                         OutputFiles& files) {
   std::vector<std::string> written;
   if (r.valve) {
-    std::ofstream csv(files.add(directory + "/frequency_response.csv"));
-    csv << "frequency,re,im,magnitude,phase,magnitude_std,phase_std,harmonic_distortion,distorted\n";
-    for (const auto& p : r.valve->points) {
-      csv << Field{p.frequency} << "," << Field{p.re} << "," << Field{p.im} << "," << Field{p.magnitude} << ","
-          << Field{p.phase} << "," << Field{p.magnitude_std} << "," << Field{p.phase_std} << ","
-          << Field{p.harmonic_distortion} << "," << p.distorted << "\n";
+    // Six significant digits: the points' own scatter is far larger.
+    CsvFile csv(files.add(directory + "/frequency_response.csv"));
+    for (const char* column : {"frequency", "re", "im", "magnitude", "phase", "magnitude_std", "phase_std",
+                               "harmonic_distortion", "distorted"}) {
+      csv.text(column);
     }
-    closeChecked(csv, directory + "/frequency_response.csv");
+    csv.endLine();
+    for (const auto& p : r.valve->points) {
+      csv.number(p.frequency, 6).number(p.re, 6).number(p.im, 6).number(p.magnitude, 6).number(p.phase, 6);
+      csv.number(p.magnitude_std, 6).number(p.phase_std, 6).number(p.harmonic_distortion, 6);
+      csv.integer(p.distorted).endLine();
+    }
+    csv.close();
     written.push_back("frequency_response.csv");
     // The fitted model's curve as the bag's FrequencyResponse message carries it, for the report's Bode plot.
     const FrequencyResponse response = toFrequencyResponseMsg(r.valve->points, r.valve->fit, "finished", ros::Time());
     if (!response.fit_frequency.empty()) {
       CsvFile fit(files.add(directory + "/valve_fit.csv"));
-      fit.text("frequency,magnitude,phase").endLine();
+      fit.text("frequency").text("magnitude").text("phase").endLine();
       for (std::size_t k = 0; k < response.fit_frequency.size(); ++k) {
-        fit.field(response.fit_frequency[k]).comma().field(response.fit_magnitude[k]).comma();
-        fit.field(response.fit_phase[k]).endLine();
+        fit.number(response.fit_frequency[k]).number(response.fit_magnitude[k]).number(response.fit_phase[k]);
+        fit.endLine();
       }
       fit.close();
       written.push_back("valve_fit.csv");
@@ -643,16 +597,20 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
   }
   if (!r.ranking.proposals.empty()) {
     // For the report: each proposal's residual against its signal, with the fitted term drawn over it.
-    std::ofstream csv(files.add(directory + "/proposals.csv"));
-    csv << "expression,signal,signal_value,residual_flow,term_flow\n";
-    csv.precision(8);
+    CsvFile csv(files.add(directory + "/proposals.csv"));
+    csv.text("expression")
+        .text("signal")
+        .text("signal_value")
+        .text("residual_flow")
+        .text("term_flow")
+        .endLine();
     for (const auto& p : r.ranking.proposals) {
       for (std::size_t b = 0; b < p.bin_signal.size(); ++b) {
-        csv << '"' << p.spec() << "\"," << p.signal << "," << Field{p.bin_signal[b]} << ","
-            << Field{p.bin_residual[b]} << "," << Field{p.bin_term[b]} << "\n";
+        csv.quoted(p.spec()).text(std::string(1, p.signal)).number(p.bin_signal[b], 8).number(p.bin_residual[b], 8);
+        csv.number(p.bin_term[b], 8).endLine();
       }
     }
-    closeChecked(csv, directory + "/proposals.csv");
+    csv.close();
     written.push_back("proposals.csv");
   }
   return written;

@@ -175,12 +175,13 @@ class SurveyThenAnalysis {
   }
   void chooseAndStart() {
     log_("choosing the sample period and filters from the recording's first " +
-         formatted("%.0f s", survey_->messages().empty() ? 0.0
-                                                          : survey_->messages().back().second.stamp -
-                                                                survey_->messages().front().second.stamp));
+         formatted(FMT_STRING("{:.0f} s"),
+                   survey_->messages().empty()
+                       ? 0.0
+                       : survey_->messages().back().second.stamp - survey_->messages().front().second.stamp));
     choice_ = survey_->choose();
     for (const auto& setting : choice_->settings) {
-      log_(setting.key + " = " + formatted("%g", setting.value) + ": " + setting.reason);
+      log_(setting.key + " = " + formatted(FMT_STRING("{:g}"), setting.value) + ": " + setting.reason);
     }
     start(choice_->config);
     // The kept messages in their order, the oil temperature's among them by stamp.
@@ -398,11 +399,7 @@ BagPass readInputs(const std::string& path, const std::string names[], const std
   return pass;
 }
 
-std::string milliseconds(double seconds) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%+.2f ms", seconds * 1e3);
-  return text;
-}
+std::string milliseconds(double seconds) { return formatted(FMT_STRING("{:+.2f} ms"), seconds * 1e3); }
 
 // The configuration file and the command line's model, checked; warnings for the geometry left at defaults.
 struct Configuration {
@@ -545,8 +542,8 @@ bool readingWarnings(const BagPass& pass, const std::string (&names)[kInputStrea
     warnings->push_back({WarningCode::kBagDamaged, "the bag lost its index (" + pass.read_error +
                                                        "): every message was read from its chunks"});
   } else {
-    char share[64];
-    std::snprintf(share, sizeof(share), "%.1f", 100.0 * pass.bytes_read / std::max<std::uint64_t>(pass.file_size, 1));
+    const std::string share =
+        formatted(FMT_STRING("{:.1f}"), 100.0 * pass.bytes_read / std::max<std::uint64_t>(pass.file_size, 1));
     const std::string unread = pass.records_unreadable > 0
                                    ? " (" + records(pass.records_unreadable) + " cut there could not be read)"
                                    : "";
@@ -648,11 +645,8 @@ int finishLog(const OfflineResult& result, bool partial, double seconds, const O
   log("simulation error " + std::to_string(result.assessment.simulation_error_rms * 1e-5) + " bar rms; " +
       result.ranking.conclusion);
   if (result.valve) log("valve: " + result.valve->fit.message);
-  char speed[128];
-  std::snprintf(speed, sizeof(speed), "%.1f s for %llu messages (%.2f M/s); results in %s", seconds,
-                static_cast<unsigned long long>(result.messages),
-                result.messages / std::max(seconds, 1e-9) / 1e6, options.out.c_str());
-  log(speed);
+  log(formatted(FMT_STRING("{:.1f} s for {} messages ({:.2f} M/s); results in {}"), seconds, result.messages,
+                result.messages / std::max(seconds, 1e-9) / 1e6, options.out));
   if (!partial && !result.partial) return 0;
   std::cerr << "analyze_bag: partial result: " << (result.partial ? "part of the analysis could not run"
                                                                    : "the bag could not be read completely")
@@ -674,10 +668,9 @@ int analyseAndWrite(OfflineAnalysis& analysis, const Options& options, const Ide
                     const AnalysisInput& input, const ReadingFindings& found,
                     std::chrono::steady_clock::time_point started, const std::function<void(const std::string&)>& log) {
   const auto tell = [&](const std::string& step) {  // the log with the time since the start
-    char elapsed[32];
-    std::snprintf(elapsed, sizeof(elapsed), "%.1f s: ",
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
-    log(elapsed + step);
+    log(formatted(FMT_STRING("{:.1f} s: "),
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()) +
+        step);
   };
   OfflineResult result = analysis.identify(tell);
   // The estimates and the model comparison are final: written out while the effects are ranked.

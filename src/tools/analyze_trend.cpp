@@ -27,6 +27,7 @@
 
 #include "argument_parser.h"
 #include "command_line.h"
+#include "csv_file.h"
 #include "die_cushion_ident/core/analysis/analysis_warning.h"
 #include "die_cushion_ident/core/analysis/parameter_trend.h"
 #include "die_cushion_ident/core/analysis/verdict.h"
@@ -147,9 +148,8 @@ std::string fingerprintOf(const std::string& bag, const Options& o, const std::s
 }
 
 std::string directoryFor(const std::string& bag, const Options& o) {
-  char hash[17];
-  std::snprintf(hash, sizeof(hash), "%016zx", std::hash<std::string>{}(bag));
-  return (fs::path(o.out) / "bags" / (fs::path(bag).stem().string() + "-" + std::string(hash, 8))).string();
+  const std::string hash = formatted(FMT_STRING("{:016x}"), std::hash<std::string>{}(bag));
+  return (fs::path(o.out) / "bags" / (fs::path(bag).stem().string() + "-" + hash.substr(0, 8))).string();
 }
 
 std::string analyzeBagPath() {
@@ -279,43 +279,43 @@ Recording readRecording(const BagJob& job) {
   return r;
 }
 
-std::string csvNumber(double v) { return std::isfinite(v) ? formatted("%.9g", v) : ""; }
-
 void writeCsv(OutputFiles& files, const std::string& path, const std::vector<Recording>& rows,
               const std::vector<std::string>& names, const std::vector<std::string>& effects,
               const std::string& config_name, bool temperatures) {
-  std::ofstream csv(files.add(path));
-  csv << "bag,start,start_stamp,duration,config";
-  for (const auto& n : names) csv << "," << n << "," << n << "_std";
-  csv << ",simulation_error_rms";
-  for (const auto& e : effects) csv << ",verdict_" << e;
+  constexpr int kDigits = 9;  // a parameter's tenth of a per mille is far inside its std
+  CsvFile csv(files.add(path));
+  csv.text("bag").text("start").text("start_stamp").text("duration").text("config");
+  for (const auto& n : names) csv.text(n).text(n + "_std");
+  csv.text("simulation_error_rms");
+  for (const auto& e : effects) csv.text("verdict_" + e);
   // Where the recordings hold the oil temperature: it, and each parameter at the reference temperature.
   if (temperatures) {
-    csv << ",oil_temperature";
-    for (const auto& n : names) csv << "," << n << "_at_reference," << n << "_at_reference_std";
+    csv.text("oil_temperature");
+    for (const auto& n : names) csv.text(n + "_at_reference").text(n + "_at_reference_std");
   }
-  csv << "\n";
+  csv.endLine();
+  const double missing = std::numeric_limits<double>::quiet_NaN();  // an empty field
   for (const auto& r : rows) {
-    csv << '"' << r.bag << "\"," << isoTime(r.start) << "," << formatted("%.3f", r.start) << ","
-        << csvNumber(r.duration) << "," << config_name;
+    csv.quoted(r.bag).text(isoTime(r.start)).fixed(r.start, 3).number(r.duration, kDigits).text(config_name);
     for (const auto& n : names) {
       const auto p = std::find_if(r.parameters.begin(), r.parameters.end(), [&](const auto& q) { return q.name == n; });
-      csv << "," << (p != r.parameters.end() ? csvNumber(p->value) : "") << ","
-          << (p != r.parameters.end() ? csvNumber(p->std) : "");
+      const bool found = p != r.parameters.end();
+      csv.number(found ? p->value : missing, kDigits).number(found ? p->std : missing, kDigits);
     }
-    csv << "," << csvNumber(r.simulation_error_rms);
-    for (const auto& e : effects) csv << "," << (r.verdicts.count(e) ? r.verdicts.at(e) : "");
+    csv.number(r.simulation_error_rms, kDigits);
+    for (const auto& e : effects) csv.text(r.verdicts.count(e) ? r.verdicts.at(e) : "");
     if (temperatures) {
-      csv << "," << csvNumber(r.oil_temperature);
+      csv.number(r.oil_temperature, kDigits);
       for (const auto& n : names) {
         const auto p = r.at_reference.find(n);
-        csv << "," << (p != r.at_reference.end() ? csvNumber(p->second.value) : "") << ","
-            << (p != r.at_reference.end() ? csvNumber(p->second.std) : "");
+        const bool found = p != r.at_reference.end();
+        csv.number(found ? p->second.value : missing, kDigits)
+            .number(found ? p->second.std : missing, kDigits);
       }
     }
-    csv << "\n";
+    csv.endLine();
   }
-  closeChecked(csv, path);
+  csv.close();
 }
 
 // Which bags need analysing: a result is reused while its fingerprint (bag size and time, settings) holds.
@@ -357,7 +357,8 @@ double analysePending(std::vector<BagJob>& jobs, const std::vector<std::size_t>&
     analyse(job, o, analyze_bag, threads_each);
     std::lock_guard<std::mutex> lock(log_mutex);
     log(std::to_string(++done) + " of " + std::to_string(pending.size()) + ": " +
-        fs::path(job.bag).filename().string() + (job.failed ? " skipped: " + job.reason : formatted(" (%.1f s)", job.seconds)));
+        fs::path(job.bag).filename().string() +
+        (job.failed ? " skipped: " + job.reason : formatted(FMT_STRING(" ({:.1f} s)"), job.seconds)));
   });
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 }
@@ -443,11 +444,13 @@ int emitParameterChanges(const std::vector<Recording>& rows, const std::vector<s
     for (const ParameterChange& change : found) {
       const std::string start = isoTime(change.start_stamp);
       std::string words = explainChange(name, units[name], change, start.substr(0, 10));
-      if (tracking.at_reference) words += formatted(" (compared at %.0f degC)", tracking.reference);
+      if (tracking.at_reference)
+        words += formatted(FMT_STRING(" (compared at {:.0f} degC)"), tracking.reference);
       yaml << YAML::Flow << YAML::BeginMap;
       yaml << YAML::Key << "parameter" << YAML::Value << name << YAML::Key << "shape" << YAML::Value << change.shape;
       yaml << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start;
-      yaml << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", change.start_stamp);
+      yaml << YAML::Key << "start_stamp" << YAML::Value
+           << formatted(FMT_STRING("{:.3f}"), change.start_stamp);
       yaml << YAML::Key << "alarm" << YAML::Value << YAML::DoubleQuoted << isoTime(change.alarm_stamp);
       yaml << YAML::Key << "before" << YAML::Value << change.before << YAML::Key << "after" << YAML::Value
            << change.after << YAML::Key << "unit" << YAML::Value << YAML::DoubleQuoted << units[name];
@@ -472,15 +475,17 @@ void emitDetectableChanges(const std::vector<Recording>& rows, const std::vector
        << (tracking.at_reference ? "at_reference_temperature" : "as_recorded");
   if (tracking.at_reference) {
     yaml << YAML::Key << "reference_temperature" << YAML::Value << tracking.reference;
-    yaml << YAML::Key << "note" << YAML::Value
-         << formatted(
-                "each parameter compared at %.0f degC (carried there by the oil's law), the rest of the "
-                "temperature's influence regressed out over the baseline",
-                tracking.reference) +
-                (tracking.with_temperature < rows.size()
-                     ? formatted("; %.0f recordings without an oil temperature left out",
-                                 rows.size() - tracking.with_temperature)
-                     : std::string());
+    yaml
+        << YAML::Key << "note" << YAML::Value
+        << formatted(
+               FMT_STRING(
+                   "each parameter compared at {:.0f} degC (carried there by the oil's law), the rest of the "
+                   "temperature's influence regressed out over the baseline"),
+               tracking.reference) +
+               (tracking.with_temperature < rows.size()
+                    ? formatted(FMT_STRING("; {} recordings without an oil temperature left out"),
+                                rows.size() - tracking.with_temperature)
+                    : std::string());
   } else {
     yaml << YAML::Key << "note" << YAML::Value
          << "no recording holds an oil temperature (topic oil_temperature): the parameters are compared as "
@@ -534,10 +539,11 @@ int emitVerdictChanges(const std::vector<Recording>& rows, const std::vector<std
                               std::to_string(run_length) + " recordings, since " + start.substr(0, 10) +
                               ", and was not before: add it to the model (analyze_bag --effects), and see which of "
                               "its parameters changes";
-    yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "effect" << YAML::Value << effect << YAML::Key << "verdict"
-         << YAML::Value << verdictName(Verdict::kMissing) << YAML::Key << "start" << YAML::Value << YAML::DoubleQuoted << start
-         << YAML::Key << "start_stamp" << YAML::Value << formatted("%.3f", missing[first].first) << YAML::Key
-         << "explanation" << YAML::Value << YAML::DoubleQuoted << words << YAML::EndMap;
+    yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "effect" << YAML::Value << effect << YAML::Key
+         << "verdict" << YAML::Value << verdictName(Verdict::kMissing) << YAML::Key << "start" << YAML::Value
+         << YAML::DoubleQuoted << start << YAML::Key << "start_stamp" << YAML::Value
+         << formatted(FMT_STRING("{:.3f}"), missing[first].first) << YAML::Key << "explanation" << YAML::Value
+         << YAML::DoubleQuoted << words << YAML::EndMap;
     log("change: " + words);
     ++changes;
   }
@@ -610,7 +616,7 @@ int run(int argc, char** argv) {
   const std::size_t skipped = jobs.size() - rows.size();
   log(std::to_string(rows.size()) + " recordings in the trend, " + std::to_string(skipped) + " skipped, " +
       std::to_string(changes) + " changes; " + std::to_string(pending.size()) + " analysed in " +
-      formatted("%.1f s", seconds) + "; results in " + o.out);
+      formatted(FMT_STRING("{:.1f} s"), seconds) + "; results in " + o.out);
   return rows.empty() ? 3 : 0;
 }
 

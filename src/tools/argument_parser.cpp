@@ -23,8 +23,8 @@ ArgumentParser& ArgumentParser::number(const std::string& name, double low, doub
   return option(name, [=](const std::string& text) {
     const auto value = numberIn(text, low, high);
     if (!value) {
-      throw std::invalid_argument(name + " needs a number in [" + formatted("%g", low) + ", " + formatted("%g", high) +
-                                  "], got '" + text + "'");
+      throw std::invalid_argument(name + " needs a number in [" + formatted(FMT_STRING("{:g}"), low) + ", " +
+                                  formatted(FMT_STRING("{:g}"), high) + "], got '" + text + "'");
     }
     *out = *value;
   });

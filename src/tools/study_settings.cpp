@@ -21,7 +21,9 @@
 #include "analysis_config.h"
 #include "argument_parser.h"
 #include "command_line.h"
+#include "csv_file.h"
 #include "die_cushion_ident/core/analysis/settings_study.h"
+#include "die_cushion_ident/core/util/formatted.h"
 #include "output_files.h"
 
 namespace die_cushion_ident {
@@ -72,11 +74,10 @@ void writeChart(OutputFiles& files, const std::string& path, const std::string& 
       << "' stroke='black'/>\n";
   for (int i = 0; i <= 4; ++i) {
     const double y = y0 + (y1 - y0) * i / 4, x = x0 + (x1 - x0) * i / 4;
-    char text[32];
-    std::snprintf(text, sizeof(text), "%.3g", y);
-    out << "<text x='" << left - 6 << "' y='" << Y(y) + 4 << "' text-anchor='end'>" << text << "</text>\n";
-    std::snprintf(text, sizeof(text), "%.3g", x);
-    out << "<text x='" << X(x) << "' y='" << H - bottom + 16 << "' text-anchor='middle'>" << text << "</text>\n";
+    out << "<text x='" << left - 6 << "' y='" << Y(y) + 4 << "' text-anchor='end'>"
+        << formatted(FMT_STRING("{:.3g}"), y) << "</text>\n";
+    out << "<text x='" << X(x) << "' y='" << H - bottom + 16 << "' text-anchor='middle'>"
+        << formatted(FMT_STRING("{:.3g}"), x) << "</text>\n";
   }
   out << "<text x='" << (left + W - right) / 2 << "' y='" << H - 10 << "' text-anchor='middle'>" << x_label
       << "</text>\n<text x='14' y='" << (top + H - bottom) / 2 << "' transform='rotate(-90 14 " << (top + H - bottom) / 2
@@ -118,14 +119,19 @@ SimulatorConfig plantToStudy(const IdentificationConfig& base, const std::string
 }
 
 void writeCsv(OutputFiles& files, const std::string& out, const std::vector<SettingsStudyPoint>& points) {
-  std::ofstream csv(files.add(out + "/settings_study.csv"));
-  csv << "form,moving_average_width,derivative_width,sample_period,parameter,bias,std,runs,bias_standard_error\n";
-  for (const auto& p : points) {
-    csv << regressionFormName(p.form) << "," << p.moving_average_width << "," << p.derivative_width << ","
-        << p.sample_period << "," << p.parameter << "," << p.bias << "," << p.std << "," << p.runs << ","
-        << p.biasStandardError() << "\n";
+  constexpr int kDigits = 6;  // the study's bias and std are Monte Carlo figures good to a few per cent
+  CsvFile csv(files.add(out + "/settings_study.csv"));
+  for (const char* column : {"form", "moving_average_width", "derivative_width", "sample_period", "parameter",
+                             "bias", "std", "runs", "bias_standard_error"}) {
+    csv.text(column);
   }
-  closeChecked(csv, out + "/settings_study.csv");
+  csv.endLine();
+  for (const auto& p : points) {
+    csv.text(regressionFormName(p.form)).integer(p.moving_average_width).integer(p.derivative_width);
+    csv.number(p.sample_period, kDigits).text(p.parameter).number(p.bias, kDigits).number(p.std, kDigits);
+    csv.integer(p.runs).number(p.biasStandardError(), kDigits).endLine();
+  }
+  csv.close();
 }
 
 // Bias and std against the moving-average width, one line per derivative width, for each form.

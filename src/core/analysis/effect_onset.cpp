@@ -151,14 +151,15 @@ void describeOnset(const std::vector<GridSample>& grid, const StrokeSegmentation
   o.cycle_period = periods.empty() ? 0.0 : periods[periods.size() / 2] / cycle_stride;
   o.explanation =
       o.effect +
-      formatted(" from press cycle %.0f on (its impact %.2f s into the recording): ", o.cycle, o.time) +
+      formatted(FMT_STRING(" from press cycle {} on (its impact {:.2f} s into the recording): "), o.cycle,
+                o.time) +
       o.parameter +
-      formatted(" %.3g +- %.2g over the cycles before, %.3g +- %.2g from it on (", o.before, o.before_std,
-                o.after, o.after_std) +
+      formatted(FMT_STRING(" {:.3g} +- {:.2g} over the cycles before, {:.3g} +- {:.2g} from it on ("),
+                o.before, o.before_std, o.after, o.after_std) +
       o.unit +
       formatted(
-          "; each cycle fitted alone, step t = %.1f, p = %.2g over every cycle and effect "
-          "tried): the plant changed while it was recorded",
+          FMT_STRING("; each cycle fitted alone, step t = {:.1f}, p = {:.2g} over every cycle and effect "
+                     "tried): the plant changed while it was recorded"),
           o.t_statistic, o.p_value);
 }
 

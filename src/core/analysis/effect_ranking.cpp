@@ -94,8 +94,8 @@ Judged judgeExtension(const std::vector<GridSample>& grid, const StrokeSegmentat
       fitted = p.value;
       candidate.parameters.push_back(p);
       if (!(std::isfinite(p.value) && p.value >= info.lower_bound && p.value <= info.upper_bound)) {
-        implausible += "; the fit puts " + info.name + " at " + formatted("%.3g", p.value) + " " + info.unit +
-                       ", outside its physical range: the data do not show this effect";
+        implausible += "; the fit puts " + info.name + " at " + formatted(FMT_STRING("{:.3g}"), p.value) +
+                       " " + info.unit + ", outside its physical range: the data do not show this effect";
       }
     }
     // The physics with the fitted value where it says more ("... at -0.41 %/K"), where it is plausible.
@@ -227,7 +227,7 @@ std::string quotedList(const std::vector<EffectStep>& steps) {
 
 HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& implausible,
                             const EffectRankingOptions& options, const std::string& removes) {
-  const std::string reduction = formatted("%.0f %%", 100.0 * test.error_reduction);
+  const std::string reduction = formatted(FMT_STRING("{:.0f} %"), 100.0 * test.error_reduction);
   if (!implausible.empty()) return {Verdict::kNotNeeded, implausible};
   if (test.cycles < options.min_held_out_cycles) {
     return {Verdict::kInconclusive, "; only " + std::to_string(test.cycles) + " held-out cycles"};
@@ -238,9 +238,10 @@ HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& im
     const double gain = std::sqrt(std::max(test.base_rms * test.base_rms - test.with_rms * test.with_rms, 0.0));
     if (options.resolution_error > 0.0 && gain <= 2.0 * options.resolution_error) {
       return {Verdict::kInconclusive,
-              "; " + reduction + " less held-out error (" + formatted("%.2f bar", 1e-5 * gain) +
+              "; " + reduction + " less held-out error (" + formatted(FMT_STRING("{:.2f} bar"), 1e-5 * gain) +
                   "), but within twice the analysis's own resolution error of " +
-                  formatted("%.2f bar", 1e-5 * options.resolution_error) + ": resolution-limited" +
+                  formatted(FMT_STRING("{:.2f} bar"), 1e-5 * options.resolution_error) +
+                  ": resolution-limited" +
                   (options.resolution_remedy.empty() ? std::string() : "; " + options.resolution_remedy)};
     }
     return {Verdict::kMissing, "; " + removes + " " + reduction + " of the free-run error on cycles it was not fitted to"};
@@ -248,16 +249,17 @@ HeldOutVerdict judgeHeldOut(const HeldOutComparison& test, const std::string& im
   if (test.error_reduction < options.not_needed_reduction) {
     return {Verdict::kNotNeeded, "; it changes the held-out error by only " + reduction};
   }
-  return {Verdict::kInconclusive, "; " + reduction + " less held-out error, but not consistently over the cycles (t = " +
-                              formatted("%.2f", test.t_statistic) + ")"};
+  return {Verdict::kInconclusive, "; " + reduction +
+                                      " less held-out error, but not consistently over the cycles (t = " +
+                                      formatted(FMT_STRING("{:.2f}"), test.t_statistic) + ")"};
 }
 
 std::string holmDemotion(double error_reduction, double p_value, bool rejected, std::size_t tried,
                          const std::string& what) {
   if (rejected) return "";
-  return "; " + formatted("%.0f %%", 100.0 * error_reduction) +
-         " less held-out error, but not significant once corrected for the " + std::to_string(tried) + " " + what +
-         " tried (Holm; one-sided p = " + formatted("%.2g", p_value) + ")";
+  return "; " + formatted(FMT_STRING("{:.0f} %"), 100.0 * error_reduction) +
+         " less held-out error, but not significant once corrected for the " + std::to_string(tried) + " " +
+         what + " tried (Holm; one-sided p = " + formatted(FMT_STRING("{:.2g}"), p_value) + ")";
 }
 
 double structuredErrorFloor(double noise_rms, const EffectRankingOptions& options) {
@@ -271,14 +273,14 @@ double structuredErrorFloor(double noise_rms, const EffectRankingOptions& option
 std::string errorLeftInWords(double error_rms, double noise_rms, const EffectRankingOptions& options) {
   const double floor = structuredErrorFloor(noise_rms, options);
   const std::string left =
-      formatted("%.2f bar rms left on held-out cycles, %.1f x the noise of %.2f bar", 1e-5 * error_rms,
-                noise_rms > 0.0 ? error_rms / noise_rms : 0.0, 1e-5 * noise_rms);
+      formatted(FMT_STRING("{:.2f} bar rms left on held-out cycles, {:.1f} x the noise of {:.2f} bar"),
+                1e-5 * error_rms, noise_rms > 0.0 ? error_rms / noise_rms : 0.0, 1e-5 * noise_rms);
   if (error_rms <= options.within_noise_factor * noise_rms) return left + ": within the noise";
   const std::string floor_words =
-      formatted("the %.2f bar a model's own free run leaves (%.0f x the noise", 1e-5 * floor,
+      formatted(FMT_STRING("the {:.2f} bar a model's own free run leaves ({:.0f} x the noise"), 1e-5 * floor,
                 options.unexplained_noise_factor) +
       (options.resolution_error > 0.0
-           ? formatted(", with twice the recording's resolution error of %.2f bar)",
+           ? formatted(FMT_STRING(", with twice the recording's resolution error of {:.2f} bar)"),
                        1e-5 * options.resolution_error)
            : std::string(")"));
   if (error_rms <= floor)
@@ -301,7 +303,7 @@ namespace {
 std::string recordingsOwnShare(const EffectRankingOptions& options) {
   if (options.resolution_remedy.empty() || !(options.resolution_error > 0.0)) return "";
   return " Part of it is the recording's own resolution (" +
-         formatted("%.2f bar", 1e-5 * options.resolution_error) +
+         formatted(FMT_STRING("{:.2f} bar"), 1e-5 * options.resolution_error) +
          " measured on the model as configured): " + options.resolution_remedy + ", then judge it again.";
 }
 
@@ -309,8 +311,9 @@ std::string recordingsOwnShare(const EffectRankingOptions& options) {
 std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cycles,
                          const EffectRankingOptions& options) {
   const std::string held_out_path = [&] {
-    std::string text = formatted("%.1f", ranking.base_error_rms * 1e-5);
-    for (const auto& step : ranking.steps) text += " -> " + formatted("%.1f", step.held_out_error_rms * 1e-5);
+    std::string text = formatted(FMT_STRING("{:.1f}"), ranking.base_error_rms * 1e-5);
+    for (const auto& step : ranking.steps)
+      text += " -> " + formatted(FMT_STRING("{:.1f}"), step.held_out_error_rms * 1e-5);
     return text + " bar rms on held-out cycles";
   }();
   if (!enough) {
@@ -321,10 +324,10 @@ std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cy
     return std::string(ranking.steps.empty()
                            ? ""
                            : "Add " + quotedList(ranking.steps) + " (" + held_out_path + "). ") +
-           "The error left (" + formatted("%.2f bar rms", ranking.best_error_rms * 1e-5) +
-           " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
+           "The error left (" + formatted(FMT_STRING("{:.2f} bar rms"), ranking.best_error_rms * 1e-5) +
+           " on held-out cycles, noise " + formatted(FMT_STRING("{:.2f} bar"), ranking.noise_rms * 1e-5) +
            ") is within the analysis's own resolution error (" +
-           formatted("%.2f bar", options.resolution_error * 1e-5) +
+           formatted(FMT_STRING("{:.2f} bar"), options.resolution_error * 1e-5) +
            "): resolution-limited, no effect is named" +
            (options.resolution_remedy.empty() ? std::string(".") : "; " + options.resolution_remedy + ".");
   }
@@ -341,8 +344,8 @@ std::string conclusionOf(const EffectRankingResult& ranking, bool enough, int cy
     return std::string(ranking.steps.empty() ? "The"
                                              : "Adding " + quotedList(ranking.steps) + " helps (" +
                                                    held_out_path + "), but the") +
-           " remaining error (" + formatted("%.1f bar rms", ranking.best_error_rms * 1e-5) +
-           " on held-out cycles, noise " + formatted("%.2f bar", ranking.noise_rms * 1e-5) +
+           " remaining error (" + formatted(FMT_STRING("{:.1f} bar rms"), ranking.best_error_rms * 1e-5) +
+           " on held-out cycles, noise " + formatted(FMT_STRING("{:.2f} bar"), ranking.noise_rms * 1e-5) +
            ") is structured and not explained by the library's effects: describe it with a custom effect "
            "(--custom-effect NAME=EXPR) where the model fails." +
            recordingsOwnShare(options);

@@ -50,7 +50,8 @@ class RegionBins {
       r.dimension = dimension_;
       r.low = edges_[b];
       r.high = edges_[b + 1];
-      r.label = formatted("%g", r.low * scale_) + "..." + formatted("%g", r.high * scale_) +
+      r.label = formatted(FMT_STRING("{:g}"), r.low * scale_) + "..." +
+                formatted(FMT_STRING("{:g}"), r.high * scale_) +
                 (unit_[0] != '\0' ? std::string(" ") + unit_ : std::string());
       r.samples = acc_[b].n;
       r.rms = std::sqrt(acc_[b].sum_squares / acc_[b].n);
@@ -198,14 +199,16 @@ std::vector<std::string> worstRegions(const ModelAssessment& a) {
     const bool made = std::isfinite(r->made_rms);
     const double rms = made ? r->made_rms : r->rms;
     const double mean = made ? r->made_mean_residual : r->mean_residual;
-    const std::string within = made ? formatted(" within %.0f ms of the measurement", 1e3 * ModelAssessment::kMadeHorizon) : "";
+    const std::string within = made ? formatted(FMT_STRING(" within {:.0f} ms of the measurement"),
+                                                1e3 * ModelAssessment::kMadeHorizon)
+                                    : "";
     const bool biased = std::abs(mean) > 0.5 * rms;
-    sentences.push_back(biased ? std::string("the model ") + (mean > 0 ? "under" : "over") +
-                                     "-predicts the pressure " + where(*r) + " by " +
-                                     formatted("%.1f bar", std::abs(mean) * 1e-5) + " on average" + within +
-                                     " (" + formatted("%.1f bar rms", rms * 1e-5) + ")"
-                               : "the model misses the pressure " + where(*r) + " by " +
-                                     formatted("%.1f bar rms", rms * 1e-5) + within + ", in both directions");
+    sentences.push_back(
+        biased ? std::string("the model ") + (mean > 0 ? "under" : "over") + "-predicts the pressure " +
+                     where(*r) + " by " + formatted(FMT_STRING("{:.1f} bar"), std::abs(mean) * 1e-5) +
+                     " on average" + within + " (" + formatted(FMT_STRING("{:.1f} bar rms"), rms * 1e-5) + ")"
+               : "the model misses the pressure " + where(*r) + " by " +
+                     formatted(FMT_STRING("{:.1f} bar rms"), rms * 1e-5) + within + ", in both directions");
   }
   return sentences;
 }

@@ -98,14 +98,17 @@ std::size_t leadInSamples(const IdentificationConfig& config) {
 // The warning a thinned analysis carries, in words.
 std::string thinnedInWords(const GridThinning& thinning, double sample_period) {
   return formatted(
-             "the recording is longer than max_analysed_samples (%.0f s of grid kept at %.3g ms): the fit "
-             "to the whole recording, the free run, the uncertainty, the change search and the effect "
-             "ranking judged every ",
+             FMT_STRING(
+                 "the recording is longer than max_analysed_samples ({:.0f} s of grid kept at {:.3g} ms): "
+                 "the fit "
+                 "to the whole recording, the free run, the uncertainty, the change search and the effect "
+                 "ranking judged every "),
              thinning.samples_kept * sample_period, 1e3 * sample_period) +
          ordinal(thinning.stride) +
          formatted(
-             " press cycle, %.0f of %.0f, evenly spaced (the online estimate covers every sample); raise "
-             "max_analysed_samples to judge more of them",
+             FMT_STRING(
+                 " press cycle, {} of {}, evenly spaced (the online estimate covers every sample); raise "
+                 "max_analysed_samples to judge more of them"),
              thinning.cycles_kept, thinning.cycles_seen);
 }
 }  // namespace
@@ -146,21 +149,28 @@ bool OfflineAnalysis::warnIfTheHoldDecidesTheValveFit(const RecordedSweep& sweep
   continuous.command_hold = 0.0;
   const RecordedSweep alternative = analyzeRecordedSweep(valve_, continuous);
   const ServoValveParameters& held = sweep.fit.parameters;
-  std::string text = formatted("the valve messages come every %.3g ms, fewer than %.0f per period of the highest "
-                               "analysed sweep frequency (%.0f Hz): the valve fit ",
-                               1e3 * sweep.message_interval, kMessagesPerPeriod, highest);
+  std::string text = formatted(
+      FMT_STRING("the valve messages come every {:.3g} ms, fewer than {:.0f} per period of the highest "
+                 "analysed sweep frequency ({:.0f} Hz): the valve fit "),
+      1e3 * sweep.message_interval, kMessagesPerPeriod, highest);
   if (alternative.fit.success) {
     const ServoValveParameters& other = alternative.fit.parameters;
-    text += "depends on how long the amplifier held each command, which the recording cannot tell. " +
-            formatted("Held one message interval (the default): %.1f Hz, damping %.2f, dead time %.2f ms; ",
-                      held.natural_frequency, held.damping, 1e3 * held.dead_time) +
-            formatted("a continuous command (valve_command_hold: 0): %.1f Hz, damping %.2f, dead time %.2f ms. ",
-                      other.natural_frequency, other.damping, 1e3 * other.dead_time) +
-            "Set valve_command_hold to the amplifier's update period";
+    text +=
+        "depends on how long the amplifier held each command, which the recording cannot tell. " +
+        formatted(
+            FMT_STRING(
+                "Held one message interval (the default): {:.1f} Hz, damping {:.2f}, dead time {:.2f} ms; "),
+            held.natural_frequency, held.damping, 1e3 * held.dead_time) +
+        formatted(FMT_STRING("a continuous command (valve_command_hold: 0): {:.1f} Hz, damping {:.2f}, dead "
+                             "time {:.2f} ms. "),
+                  other.natural_frequency, other.damping, 1e3 * other.dead_time) +
+        "Set valve_command_hold to the amplifier's update period";
   } else {
-    text += formatted("(%.1f Hz, damping %.2f) assumes the amplifier held each command one message interval, "
-                      "which the recording cannot tell; set valve_command_hold to the amplifier's update period",
-                      held.natural_frequency, held.damping);
+    text += formatted(
+        FMT_STRING(
+            "({:.1f} Hz, damping {:.2f}) assumes the amplifier held each command one message interval, "
+            "which the recording cannot tell; set valve_command_hold to the amplifier's update period"),
+        held.natural_frequency, held.damping);
   }
   warnings->push_back({WarningCode::kValveModel, text});
   return true;
@@ -295,18 +305,20 @@ void warnRejectedOilTemperature(const IdentificationConfig& config, OfflineResul
   const StreamHealth& h = oil.health;
   std::string reasons;
   const auto add = [&](std::uint64_t count, const std::string& what) {
-    if (count > 0) reasons += (reasons.empty() ? "" : ", ") + formatted("%.0f ", count) + what;
+    if (count > 0) reasons += (reasons.empty() ? "" : ", ") + formatted(FMT_STRING("{} "), count) + what;
   };
   add(h.non_finite, "not finite (NaN)");
   add(h.implausible - oil.jumps,
-      formatted("outside the plausible range [%.4g, %.4g] degC", config.min_plausible_oil_temperature,
-                config.max_plausible_oil_temperature));
+      formatted(FMT_STRING("outside the plausible range [{:.4g}, {:.4g}] degC"),
+                config.min_plausible_oil_temperature, config.max_plausible_oil_temperature));
   add(oil.jumps,
-      formatted("jumping faster than %.3g K/s from the last accepted value (unconfirmed by the next "
-                "messages)",
-                config.max_plausible_oil_temperature_rate));
-  add(h.wild_stamps, formatted("stamped more than %.3g s off the other topics (the last %+.4g s)",
-                               config.oil_temperature_max_age, h.last_wild_offset));
+      formatted(
+          FMT_STRING("jumping faster than {:.3g} K/s from the last accepted value (unconfirmed by the next "
+                     "messages)"),
+          config.max_plausible_oil_temperature_rate));
+  add(h.wild_stamps,
+      formatted(FMT_STRING("stamped more than {:.3g} s off the other topics (the last {:+.4g} s)"),
+                config.oil_temperature_max_age, h.last_wild_offset));
   add(h.duplicates + h.out_of_order, "repeated or running back in time");
   if (reasons.empty()) return;
   r.warnings.push_back({WarningCode::kMessagesRejected,
@@ -372,17 +384,18 @@ void OfflineAnalysis::settleOilTemperature(OfflineResult* result) {
   if (oil.health.accepted == 0) {
     r.warnings.push_back(
         {WarningCode::kOilTemperature,
-         formatted("the oil temperature topic gave no usable message (%.0f received, every one "
-                   "rejected: see the warnings on rejected messages): the parameters are not "
-                   "carried to the reference temperature",
+         formatted(FMT_STRING("the oil temperature topic gave no usable message ({} received, every one "
+                              "rejected: see the warnings on rejected messages): the parameters are not "
+                              "carried to the reference temperature"),
                    oil_received_)});
   } else if (oil.grid_share < 0.99 && complete > 0) {
     r.warnings.push_back(
         {WarningCode::kOilTemperature,
          formatted(
-             "the oil temperature topic was silent for %.0f %% of the recording (longer than "
-             "oil_temperature_max_age, %.3g s, without a message): there the oil's temperature is taken as "
-             "its mean over the rest (%.1f degC)",
+             FMT_STRING("the oil temperature topic was silent for {:.0f} % of the recording (longer than "
+                        "oil_temperature_max_age, {:.3g} s, without a message): there the oil's temperature "
+                        "is taken as "
+                        "its mean over the rest ({:.1f} degC)"),
              100.0 * (1.0 - oil.grid_share), max_age, std::isfinite(oil.origin) ? oil.origin : oil.mean)});
   }
   r.oil_temperature = std::move(oil);
@@ -492,8 +505,9 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
   if (r.oil_temperature && model.oilStateParameter() < 0 &&
       r.oil_temperature->highest - r.oil_temperature->lowest >= kNotableWarming) {
     warming = formatted(
-        "; the oil's temperature went from %.1f to %.1f degC while it was recorded: try the effect "
-        "oil_temperature",
+        FMT_STRING(
+            "; the oil's temperature went from {:.1f} to {:.1f} degC while it was recorded: try the effect "
+            "oil_temperature"),
         r.oil_temperature->lowest, r.oil_temperature->highest);
   }
   for (const auto& spread : parametersThatVaryOverTheRecording(cycle_groups, r.model)) {

@@ -296,14 +296,17 @@ void setClusterRobustStds(const std::vector<GridSample>& fitted, std::size_t n, 
 // held-out tests, and the equation-error estimate shows where it is made.
 std::string whyNotKept(const OutputErrorFit& fit, double rms, bool finite, const OutputErrorOptions& refine) {
   if (!(rms < fit.start_rms) || !finite) {
-    return formatted("the free run's error did not fall (%.3g -> %.3g bar): the equation-error estimate kept",
-                     1e-5 * fit.start_rms, 1e-5 * rms);
+    return formatted(
+        FMT_STRING(
+            "the free run's error did not fall ({:.3g} -> {:.3g} bar): the equation-error estimate kept"),
+        1e-5 * fit.start_rms, 1e-5 * rms);
   }
   if (!(std::isfinite(fit.noise) && rms <= refine.kept_up_to_noise * fit.noise)) {
     return formatted(
-        "free-run error %.3g -> %.3g bar, not kept: %.2f times the pressure noise (%.3g bar) "
-        "remain, more than %.1f: the model lacks something, and the equation-error estimate "
-        "shows where",
+        FMT_STRING(
+            "free-run error {:.3g} -> {:.3g} bar, not kept: {:.2f} times the pressure noise ({:.3g} bar) "
+            "remain, more than {:.1f}: the model lacks something, and the equation-error estimate "
+            "shows where"),
         1e-5 * fit.start_rms, 1e-5 * rms, rms / fit.noise, 1e-5 * fit.noise, refine.kept_up_to_noise);
   }
   return "";
@@ -336,8 +339,8 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   // Far above the noise the model lacks something, and no refinement would reach it: not tried.
   if (!(std::isfinite(fit.noise) && fit.start_rms <= kWorthRefining * fit.noise)) {
     fit.message = formatted(
-        "not refined: the free run's error is %.3g bar, %.1f times the pressure noise: the "
-        "model lacks something, and the equation-error estimate shows where",
+        FMT_STRING("not refined: the free run's error is {:.3g} bar, {:.1f} times the pressure noise: the "
+                   "model lacks something, and the equation-error estimate shows where"),
         1e-5 * fit.start_rms, fit.start_rms / fit.noise);
     return fit;
   }
@@ -362,8 +365,9 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   fit.position_shift = solved.position_shift;
   fit.rms = rms;
   fit.samples = valid;
-  fit.message = formatted("free-run error %.3g -> %.3g bar over %.0f samples (%.0f Ceres iterations)",
-                          1e-5 * fit.start_rms, 1e-5 * rms, valid, solved.iterations);
+  fit.message =
+      formatted(FMT_STRING("free-run error {:.3g} -> {:.3g} bar over {} samples ({} Ceres iterations)"),
+                1e-5 * fit.start_rms, 1e-5 * rms, valid, solved.iterations);
   if (refine.with_stds)
     setClusterRobustStds(fitted, n, model, scale, r, min_pressure, refine, start_std, fit);
   return fit;

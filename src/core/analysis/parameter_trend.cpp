@@ -413,16 +413,17 @@ std::string explainChange(const std::string& parameter, const std::string& unit,
   std::string size;
   const double ratio = change.before != 0.0 ? change.after / change.before : 0.0;
   if (ratio >= 2.0) {
-    size = formatted("has risen %.1f-fold", ratio);
+    size = formatted(FMT_STRING("has risen {:.1f}-fold"), ratio);
   } else if (ratio > 0.0 && ratio <= 0.5) {
-    size = formatted("has fallen %.1f-fold", 1.0 / ratio);
+    size = formatted(FMT_STRING("has fallen {:.1f}-fold"), 1.0 / ratio);
   } else if (ratio > 0.0) {
-    size = formatted(rose ? "has risen %.0f %%" : "has fallen %.0f %%", 100.0 * std::abs(ratio - 1.0));
+    size = (rose ? "has risen " : "has fallen ") +
+           formatted(FMT_STRING("{:.0f} %"), 100.0 * std::abs(ratio - 1.0));
   } else {
     size = rose ? "has risen" : "has fallen";
   }
-  return parameter + " " + size + " (" + formatted("%.3g", change.before) + " -> " +
-         formatted("%.3g", change.after) + " " + unit + ", " +
+  return parameter + " " + size + " (" + formatted(FMT_STRING("{:.3g}"), change.before) + " -> " +
+         formatted(FMT_STRING("{:.3g}"), change.after) + " " + unit + ", " +
          (change.shape == "step" ? "a step" : "a drift") + ") since " + since + ": " + reading;
 }
 

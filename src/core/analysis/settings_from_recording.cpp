@@ -249,12 +249,12 @@ void studyPositionRate(const Messages& messages, const IdentificationConfig& at_
   const Richardson estimate = richardson(change, earlier_change);
   choice.position_rate_error = estimate.error;
   if (!(choice.position_rate_error > allowed_change)) return;
-  const std::string remedy = formatted("record the position at %.0f Hz or more",
+  const std::string remedy = formatted(FMT_STRING("record the position at {:.0f} Hz or more"),
                                        recordingRate(estimate.stepFor(allowed_change, interval)));
-  const std::string finding = formatted(
-      "resolution-limited: the position topic comes every %.3g ms, and the free run's error from that rate alone "
-      "is about %.2g bar (pressure noise %.2g bar); ",
-      1e3 * interval, 1e-5 * choice.position_rate_error, 1e-5 * noise);
+  const std::string finding = formatted(FMT_STRING("resolution-limited: the position topic comes every "
+                                                   "{:.3g} ms, and the free run's error from that rate alone "
+                                                   "is about {:.2g} bar (pressure noise {:.2g} bar); "),
+                                        1e3 * interval, 1e-5 * choice.position_rate_error, 1e-5 * noise);
   addRateLimit(finding, remedy, choice.position_rate_error, choice);
 }
 
@@ -359,14 +359,17 @@ void studyValveRate(const Messages& messages, const IdentificationConfig& at_cho
   choice.valve_rate_error = changeBetween(level, native, at_chosen.resampler.sample_period);
   if (!(choice.valve_rate_error > allowed_change)) return;
   const std::string remedy = formatted(
-      "record the valve topic at its amplifier's update rate (%.0f Hz or more: 4 messages per period of the "
-      "valve's %.0f Hz), or, where the amplifier updates only as often as the topic, set "
-      "valve_command_hold: %.3g",
+      FMT_STRING("record the valve topic at its amplifier's update rate ({:.0f} Hz or more: 4 messages per "
+                 "period of the "
+                 "valve's {:.0f} Hz), or, where the amplifier updates only as often as the topic, set "
+                 "valve_command_hold: {:.3g}"),
       valveRecordingRate(frequency), frequency, interval);
   const std::string finding = formatted(
-      "resolution-limited: the valve topic comes every %.3g ms, %.1f messages per period of the valve's "
-      "%.0f Hz; commands a faster amplifier applied between them are not in the recording, and the free "
-      "run's error from them is about %.2g bar (pressure noise %.2g bar); ",
+      FMT_STRING("resolution-limited: the valve topic comes every {:.3g} ms, {:.1f} messages per period of "
+                 "the valve's "
+                 "{:.0f} Hz; commands a faster amplifier applied between them are not in the recording, and "
+                 "the free "
+                 "run's error from them is about {:.2g} bar (pressure noise {:.2g} bar); "),
       1e3 * interval, 1.0 / (frequency * interval), frequency, 1e-5 * choice.valve_rate_error, 1e-5 * noise);
   addRateLimit(finding, remedy, choice.valve_rate_error, choice);
 }
@@ -427,8 +430,9 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   choice.config.topic_delays[kPosition] += shift;
   choice.delays->delays[kPosition] += shift;
   choice.delays->resolution[kPosition] = kFreeRunOffsetFloor;
-  choice.delays->message += formatted("; the position's offset refined by the free run by %+.3f ms (+-%.2f ms)",
-                                      1e3 * shift, 1e3 * kFreeRunOffsetFloor);
+  choice.delays->message +=
+      formatted(FMT_STRING("; the position's offset refined by the free run by {:+.3f} ms (+-{:.2f} ms)"),
+                1e3 * shift, 1e3 * kFreeRunOffsetFloor);
   if (choice.delays->distinguishable()) choice.delays_applied = true;
   return refined;
 }
@@ -473,12 +477,13 @@ std::string valveRateUnstudiedWarning(const IdentificationConfig& config, double
       !commandsBetweenMessagesMatter(frequency, valve_interval, config.valve_command_hold))
     return "";
   return formatted(
-      "the valve topic comes every %.3g ms, %.1f messages per period of the valve model's %.0f Hz: "
-      "commands a faster amplifier applied between them are not in the recording, and the free run "
-      "may be off by more than the noise for that alone; without the survey nothing measures how "
-      "much. Leave out --fixed-settings (its survey does: settings.valve_rate_error), record the "
-      "valve at %.0f Hz or more, or, where the amplifier updates only as often as the topic, set "
-      "valve_command_hold: %.3g",
+      FMT_STRING(
+          "the valve topic comes every {:.3g} ms, {:.1f} messages per period of the valve model's {:.0f} Hz: "
+          "commands a faster amplifier applied between them are not in the recording, and the free run "
+          "may be off by more than the noise for that alone; without the survey nothing measures how "
+          "much. Leave out --fixed-settings (its survey does: settings.valve_rate_error), record the "
+          "valve at {:.0f} Hz or more, or, where the amplifier updates only as often as the topic, set "
+          "valve_command_hold: {:.3g}"),
       1e3 * valve_interval, 1.0 / (frequency * valve_interval), frequency, valveRecordingRate(frequency),
       valve_interval);
 }
@@ -536,11 +541,13 @@ std::vector<ValveSample> surveyMessages(const Messages& messages, RecordingSurve
 }
 
 std::string unmodelledSpoolWarning(const ServoValveParameters& valve) {
-  return formatted("the spool is not measured and no valve model is configured: the spool is predicted by the "
-                   "default valve (%.0f Hz, damping %.2f, dead time %.2f ms), and the free run is only as right "
-                   "as it. Configure the valve (valve_natural_frequency, valve_damping, valve_gain, "
-                   "valve_dead_time) from a sweep of this valve",
-                   valve.natural_frequency, valve.damping, 1e3 * valve.dead_time);
+  return formatted(
+      FMT_STRING(
+          "the spool is not measured and no valve model is configured: the spool is predicted by the "
+          "default valve ({:.0f} Hz, damping {:.2f}, dead time {:.2f} ms), and the free run is only as right "
+          "as it. Configure the valve (valve_natural_frequency, valve_damping, valve_gain, "
+          "valve_dead_time) from a sweep of this valve"),
+      valve.natural_frequency, valve.damping, 1e3 * valve.dead_time);
 }
 
 // [s] the fastest topic's message interval (infinity where none has one).
@@ -576,8 +583,8 @@ void adoptValveFit(ValveOperationFit fit, bool valve_configured, SettingsChoice&
     choice.warnings.push_back(
         {WarningCode::kValveModel,
          "the configured valve model does not follow the measured spool (" +
-             formatted("residual %.2g against a sensor noise of %.2g", choice.valve->start_residual_rms,
-                       choice.valve->noise_sigma) +
+             formatted(FMT_STRING("residual {:.2g} against a sensor noise of {:.2g}"),
+                       choice.valve->start_residual_rms, choice.valve->noise_sigma) +
              "): the analysis uses the one fitted to the recording's operation instead (" +
              choice.valve->message + ")"});
   }
@@ -754,12 +761,15 @@ void ResolutionStudy::judgeTheFinestPeriod(std::size_t chosen, double allowed_ch
     choice_.resolution_not_converging = true;
   } else if (choice_.resolution_error > allowed_change) {
     // The period at which the error would fall to the allowed share, at the same order.
-    choice_.resolution_remedy = formatted("record pressure, position and valve at %.0f Hz or more",
-                                          recordingRate(estimate.stepFor(allowed_change, chosen_period)));
+    choice_.resolution_remedy =
+        formatted(FMT_STRING("record pressure, position and valve at {:.0f} Hz or more"),
+                  recordingRate(estimate.stepFor(allowed_change, chosen_period)));
     choice_.resolution_limit =
-        formatted("resolution-limited: at the finest sample period the recording supports (%.3g ms; its fastest "
-                  "topic comes every %.3g ms) the free run's own error is about %.2g bar (pressure noise %.2g "
-                  "bar); ",
+        formatted(FMT_STRING("resolution-limited: at the finest sample period the recording supports ({:.3g} "
+                             "ms; its fastest "
+                             "topic comes every {:.3g} ms) the free run's own error is about {:.2g} bar "
+                             "(pressure noise {:.2g} "
+                             "bar); "),
                   1e3 * chosen_period, 1e3 * finest_interval, 1e-5 * choice_.resolution_error, 1e-5 * noise) +
         choice_.resolution_remedy;
   } else {
@@ -803,37 +813,44 @@ std::string periodReason(const StudyOutcome& outcome, const SettingsChoice& choi
                          double noise) {
   if (outcome.no_press_stroke) {
     const std::string period =
-        outcome.step_t63 > 0.0 ? formatted("within a tenth of the step test's t63 (%.3g ms)", 1e3 * outcome.step_t63)
+        outcome.step_t63 > 0.0 ? formatted(FMT_STRING("within a tenth of the step test's t63 ({:.3g} ms)"),
+                                           1e3 * outcome.step_t63)
         : outcome.implausible.empty()
             ? std::string("the paper's value")
-            : formatted("the finest the recording supports (messages every %.3g ms)", 1e3 * finest_interval);
+            : formatted(FMT_STRING("the finest the recording supports (messages every {:.3g} ms)"),
+                        1e3 * finest_interval);
     return period +
            ": the survey holds no press stroke (a step test or valve sweep with the cushion at rest), nothing to "
            "identify a model from and study the grid's error with";
   }
   if (!outcome.implausible.empty()) {
-    return formatted("the finest the recording supports (messages every %.3g ms), unstudied: the configured "
-                     "model's fit is implausible (",
-                     1e3 * finest_interval) +
+    return formatted(
+               FMT_STRING(
+                   "the finest the recording supports (messages every {:.3g} ms), unstudied: the configured "
+                   "model's fit is implausible ("),
+               1e3 * finest_interval) +
            outcome.implausible + "), so its free run cannot measure the grid's error";
   }
   if (!outcome.studied) return "the paper's value: the survey holds nothing to identify";
   if (outcome.resolved) {
     return formatted(
-        "the free run's own error there is %.3g bar, from how it changes as the period halves (the "
-        "pressure noise is %.3g bar)",
+        FMT_STRING(
+            "the free run's own error there is {:.3g} bar, from how it changes as the period halves (the "
+            "pressure noise is {:.3g} bar)"),
         1e-5 * outcome.grid_error, 1e-5 * noise);
   }
   if (choice.resolution_not_converging) {
     return formatted(
-        "the finest the recording supports (messages every %.3g ms); the configured model's free run "
-        "does not converge as the period halves (its own numerical error %.2g bar): no error of the "
-        "grid is claimed, the model's error is the ranking's to explain",
+        FMT_STRING(
+            "the finest the recording supports (messages every {:.3g} ms); the configured model's free run "
+            "does not converge as the period halves (its own numerical error {:.2g} bar): no error of the "
+            "grid is claimed, the model's error is the ranking's to explain"),
         1e3 * finest_interval, 1e-5 * choice.numerical_error);
   }
   return formatted(
-      "the finest the recording supports (messages every %.3g ms); the free run's own error there is "
-      "about %.2g bar (noise %.3g bar)",
+      FMT_STRING(
+          "the finest the recording supports (messages every {:.3g} ms); the free run's own error there is "
+          "about {:.2g} bar (noise {:.3g} bar)"),
       1e3 * finest_interval, 1e-5 * outcome.grid_error, 1e-5 * noise);
 }
 
@@ -862,11 +879,11 @@ void keepConfigured(const IdentificationConfig& configured_config, const std::se
         if (std::isfinite(change) && change > allowed_change) {
           choice.warnings.push_back(
               {WarningCode::kSettingBiased,
-               formatted("sample_period %.3g ms (configured) leaves a resolution error on this "
-                         "recording: the free run changes by %.2g bar when it halves (pressure "
-                         "noise %.2g bar); the analysis would choose %.3g ms. An error of the "
-                         "grid can look like a missing effect: remove the key to let the "
-                         "analysis choose",
+               formatted(FMT_STRING("sample_period {:.3g} ms (configured) leaves a resolution error on this "
+                                    "recording: the free run changes by {:.2g} bar when it halves (pressure "
+                                    "noise {:.2g} bar); the analysis would choose {:.3g} ms. An error of the "
+                                    "grid can look like a missing effect: remove the key to let the "
+                                    "analysis choose"),
                          1e3 * setting.value, 1e-5 * change, 1e-5 * noise, 1e3 * chosen_period)});
         }
       }
@@ -913,8 +930,8 @@ void reconcile(double shortest_drawing, SettingsChoice& choice) {
       (c.moving_average_width + c.derivative_width - 1) * c.resampler.sample_period > shortest_drawing) {
     choice.warnings.push_back(
         {WarningCode::kFiltersTooLong,
-         formatted("the filter windows (%.0f + %.0f samples of %.3g ms) are longer than the "
-                   "shortest drawing phase (%.3g s): few rows lie wholly in it",
+         formatted(FMT_STRING("the filter windows ({} + {} samples of {:.3g} ms) are longer than the "
+                              "shortest drawing phase ({:.3g} s): few rows lie wholly in it"),
                    c.moving_average_width, c.derivative_width, 1e3 * c.resampler.sample_period,
                    shortest_drawing)});
   }
@@ -991,8 +1008,9 @@ SettingsChoice SettingsFromRecording::choose() const {
   const std::string window_reason =
       chosen.moving_average_width == oddSamples(kMovingAverageWindow, outcome.chosen_period, 1)
           ? "the paper's window in time (62 ms moving average, 50 ms derivative)"
-          : formatted("the paper's windows shortened to half the shortest drawing phase (%.3g s)",
-                      outcome.shortest_drawing);
+          : formatted(
+                FMT_STRING("the paper's windows shortened to half the shortest drawing phase ({:.3g} s)"),
+                outcome.shortest_drawing);
   addSetting(choice, "moving_average_width", chosen.moving_average_width, window_reason);
   addSetting(choice, "derivative_width", chosen.derivative_width, window_reason);
   addSetting(choice, "identification_period", chosen.identification_period,

@@ -35,14 +35,15 @@ std::string FeedForwardInterlock::checkParameters(const HydraulicModel& model,
     const ParameterInfo& info = infos[i];
     // Bulk modulus, flow gain and dead volume strictly positive: at zero the inverse loses its sign.
     if (i < HydraulicModel::kFirstEffect && !(physical(i) > 0.0)) {
-      return info.name + formatted(" = %.3g ", physical(i)) + info.unit +
+      return info.name + formatted(FMT_STRING(" = {:.3g} "), physical(i)) + info.unit +
              " is not positive: the inverse would turn the pressure's error the wrong way";
     }
     const double slack = std::isfinite(stds(i)) ? kStds * std::abs(stds(i)) : 0.0;
     if (physical(i) < info.lower_bound - slack || physical(i) > info.upper_bound + slack) {
-      return info.name + formatted(" = %.3g ", physical(i)) + info.unit + formatted(" (std %.2g)", stds(i)) +
-             " lies outside its physical range [" + formatted("%.3g, ", info.lower_bound) +
-             formatted("%.3g] ", info.upper_bound) + info.unit + " by more than 3 stds";
+      return info.name + formatted(FMT_STRING(" = {:.3g} "), physical(i)) + info.unit +
+             formatted(FMT_STRING(" (std {:.2g})"), stds(i)) + " lies outside its physical range [" +
+             formatted(FMT_STRING("{:.3g}, "), info.lower_bound) +
+             formatted(FMT_STRING("{:.3g}] "), info.upper_bound) + info.unit + " by more than 3 stds";
     }
     inside(i) = std::clamp(physical(i), info.lower_bound, info.upper_bound);
   }
@@ -61,34 +62,40 @@ std::string FeedForwardInterlock::checkValve(const ServoValveParameters& valve, 
   const double reference = referenceGain(configured_gain_, swept_);
   if (std::isfinite(reference)) {
     if ((valve.gain > 0.0) != (reference > 0.0)) {
-      return formatted("the valve gain %.3g 1/V has the opposite sign of the reference %.3g 1/V", valve.gain,
-                       reference);
+      return formatted(
+          FMT_STRING("the valve gain {:.3g} 1/V has the opposite sign of the reference {:.3g} 1/V"),
+          valve.gain, reference);
     }
     const double ratio = valve.gain / reference;
     if (ratio > limits_.valve_gain_band || ratio < 1.0 / limits_.valve_gain_band) {
-      return formatted("the valve gain %.3g 1/V is more than %.3g times off the reference %.3g 1/V",
-                       valve.gain, limits_.valve_gain_band, reference);
+      return formatted(
+          FMT_STRING("the valve gain {:.3g} 1/V is more than {:.3g} times off the reference {:.3g} 1/V"),
+          valve.gain, limits_.valve_gain_band, reference);
     }
   }
   if (!from_sweep) return "";
   using S = ValveSanity;
   if (!(valve.natural_frequency >= S::kMinNaturalFrequency &&
         valve.natural_frequency <= S::kMaxNaturalFrequency)) {
-    return formatted("the valve's natural frequency %.3g Hz lies outside [%g, ", valve.natural_frequency,
-                     S::kMinNaturalFrequency) +
-           formatted("%g] Hz", S::kMaxNaturalFrequency);
+    return formatted(FMT_STRING("the valve's natural frequency {:.3g} Hz lies outside [{:g}, "),
+                     valve.natural_frequency, S::kMinNaturalFrequency) +
+           formatted(FMT_STRING("{:g}] Hz"), S::kMaxNaturalFrequency);
   }
   if (!(valve.damping >= S::kMinDamping && valve.damping <= S::kMaxDamping)) {
-    return formatted("the valve's damping %.3g lies outside [%g, ", valve.damping, S::kMinDamping) +
-           formatted("%g]", S::kMaxDamping);
+    return formatted(FMT_STRING("the valve's damping {:.3g} lies outside [{:g}, "), valve.damping,
+                     S::kMinDamping) +
+           formatted(FMT_STRING("{:g}]"), S::kMaxDamping);
   }
   if (!(valve.dead_time >= 0.0 && valve.dead_time <= S::kMaxDeadTime)) {
-    return formatted("the valve's dead time %.3g s lies outside [0, %g] s", valve.dead_time, S::kMaxDeadTime);
+    return formatted(FMT_STRING("the valve's dead time {:.3g} s lies outside [0, {:g}] s"), valve.dead_time,
+                     S::kMaxDeadTime);
   }
   if (!(valve.lowFrequencyDelay() <= limits_.max_lead)) {
-    return formatted("the valve's lag (dead time + 2 D / w0) %.1f ms is longer than the lead allowed, ",
-                     valve.lowFrequencyDelay() * 1e3) +
-           formatted("%.1f ms (feed_forward_max_lead)", limits_.max_lead * 1e3);
+    return formatted(
+               FMT_STRING(
+                   "the valve's lag (dead time + 2 D / w0) {:.1f} ms is longer than the lead allowed, "),
+               valve.lowFrequencyDelay() * 1e3) +
+           formatted(FMT_STRING("{:.1f} ms (feed_forward_max_lead)"), limits_.max_lead * 1e3);
   }
   return "";
 }

@@ -96,8 +96,9 @@ double PressureFeedForward::opening(const SetpointAhead& setpoint, double x, dou
       capacitance +
       (model_.extraOutflow(above, physical_) - model_.extraOutflow(below, physical_)) / (2.0 * h);
   if (!(compliance > 0.0) || !std::isfinite(compliance)) {
-    return refuse(formatted("the chamber's compliance at %.1f bar", setpoint.pressure * 1e-5) +
-                  formatted(" and x = %.3f m is ", s.x) + formatted("%.3g m^3/Pa", compliance) +
+    return refuse(formatted(FMT_STRING("the chamber's compliance at {:.1f} bar"), setpoint.pressure * 1e-5) +
+                  formatted(FMT_STRING(" and x = {:.3f} m is "), s.x) +
+                  formatted(FMT_STRING("{:.3g} m^3/Pa"), compliance) +
                   ", not positive: the set-point's rate would act the wrong way");
   }
   const double rate_flow =
@@ -122,8 +123,9 @@ double PressureFeedForward::spoolOpening(const SetpointAhead& setpoint, double x
   if (!(y_steeper <= y + 1e-12)) {
     if (refusal) {
       *refusal =
-          formatted("the model's inverse turns round at %.1f bar", setpoint.pressure * 1e-5) +
-          formatted(" and %.3g Pa/s: a steeper rise would open the valve towards the drain", setpoint.rate);
+          formatted(FMT_STRING("the model's inverse turns round at {:.1f} bar"), setpoint.pressure * 1e-5) +
+          formatted(FMT_STRING(" and {:.3g} Pa/s: a steeper rise would open the valve towards the drain"),
+                    setpoint.rate);
     }
     return std::numeric_limits<double>::quiet_NaN();
   }
@@ -196,16 +198,19 @@ std::optional<SetpointAhead> PressureReference::at(Instant now, double ahead, st
   const double t1 = samples_.back().first, p1 = samples_.back().second;
   const double age = now.clock - t1, silent = now.steady - arrival_;
   if (!(age <= limits_.max_age)) {
-    return stale(formatted("pressure_setpoint is stale (stamped %.3f s before the clock, ", age) +
-                 formatted("allowed %.3f s)", limits_.max_age));
+    return stale(
+        formatted(FMT_STRING("pressure_setpoint is stale (stamped {:.3f} s before the clock, "), age) +
+        formatted(FMT_STRING("allowed {:.3f} s)"), limits_.max_age));
   }
   if (!(silent <= limits_.max_age)) {
-    return stale(formatted("pressure_setpoint is lost (none arrived for %.0f ms, ", silent * 1e3) +
-                 formatted("allowed %.0f ms)", limits_.max_age * 1e3));
+    return stale(
+        formatted(FMT_STRING("pressure_setpoint is lost (none arrived for {:.0f} ms, "), silent * 1e3) +
+        formatted(FMT_STRING("allowed {:.0f} ms)"), limits_.max_age * 1e3));
   }
   if (!(age >= -limits_.max_clock_offset)) {
-    return stale(formatted("pressure_setpoint is stamped %.3f s ahead of the clock (tolerance ", -age) +
-                 formatted("%.3f s): its clock is not the node's", limits_.max_clock_offset));
+    return stale(
+        formatted(FMT_STRING("pressure_setpoint is stamped {:.3f} s ahead of the clock (tolerance "), -age) +
+        formatted(FMT_STRING("{:.3f} s): its clock is not the node's"), limits_.max_clock_offset));
   }
   // Extrapolated over the valve's lag and the set-point's own age, never further.
   return SetpointAhead{p1, rate(), std::clamp(now.clock + ahead - t1, 0.0, limits_.max_age + ahead)};

@@ -56,8 +56,9 @@ std::string ValveSupervisor::startExperiment(ValveExperiments::Kind kind, Instan
 
 std::string ValveSupervisor::feedForwardHoldsValve() const {
   return formatted(
-      "the feed-forward adds %.3f V to the valve command; switch it off first (~enable_feed_forward "
-      "false) and wait for its ramp to 0 V",
+      FMT_STRING(
+          "the feed-forward adds {:.3f} V to the valve command; switch it off first (~enable_feed_forward "
+          "false) and wait for its ramp to 0 V"),
       output_.last());
 }
 
@@ -70,10 +71,10 @@ void ValveSupervisor::superviseExperiment(Instant now, bool from_watchdog) {
   if (before == ValveExperiments::Kind::kNone) return;
   const std::string holder = experiments_.holder();
   if (from_watchdog && now.steady - command_sent_ > limits_.signal_timeout) {
-    experiments_.abort(
-        formatted("no command was sent for %.0f ms (limit %.0f ms): the command timer stalled (a "
-                  "stopped /clock, a blocked node)",
-                  (now.steady - command_sent_) * 1e3, limits_.signal_timeout * 1e3));
+    experiments_.abort(formatted(
+        FMT_STRING("no command was sent for {:.0f} ms (limit {:.0f} ms): the command timer stalled (a "
+                   "stopped /clock, a blocked node)"),
+        (now.steady - command_sent_) * 1e3, limits_.signal_timeout * 1e3));
   } else {
     experiments_.supervise(now, condition(now));
   }
@@ -99,8 +100,8 @@ std::string ValveSupervisor::enableFeedForward(bool enable, Instant) {
   enabled_ = enable;
   if (enable)
     return "the feed-forward is on: it ramps in at the next grid sample where everything it needs is there";
-  return formatted("the feed-forward is off: it ramps from %.3f V to 0 V", output_.last()) +
-         formatted(" at %g V/s", output_.limits().slew_rate);
+  return formatted(FMT_STRING("the feed-forward is off: it ramps from {:.3f} V to 0 V"), output_.last()) +
+         formatted(FMT_STRING(" at {:g} V/s"), output_.limits().slew_rate);
 }
 
 std::string ValveSupervisor::feedForwardBlocker(const PlantCondition& plant, Instant now) const {
@@ -109,18 +110,19 @@ std::string ValveSupervisor::feedForwardBlocker(const PlantCondition& plant, Ins
   if (!plant.clock_problem.empty()) return plant.clock_problem;
   const double timeout = limits_.signal_timeout;
   if (!(plant.pressure_age <= timeout)) {
-    return formatted("the pressure is lost (no finite reading for %.0f ms, ",
+    return formatted(FMT_STRING("the pressure is lost (no finite reading for {:.0f} ms, "),
                      std::min(plant.pressure_age, 1e9) * 1e3) +
-           formatted("limit %.0f ms)", timeout * 1e3);
+           formatted(FMT_STRING("limit {:.0f} ms)"), timeout * 1e3);
   }
   if (!(plant.position_age <= timeout)) {
-    return formatted("the position is lost (no reading for %.0f ms, ",
+    return formatted(FMT_STRING("the position is lost (no reading for {:.0f} ms, "),
                      std::min(plant.position_age, 1e9) * 1e3) +
-           formatted("limit %.0f ms)", timeout * 1e3);
+           formatted(FMT_STRING("limit {:.0f} ms)"), timeout * 1e3);
   }
   if (!(now.steady - ff_updated_ <= timeout)) {
-    return formatted("no grid sample for %.0f ms ", std::min(now.steady - ff_updated_, 1e9) * 1e3) +
-           formatted("(limit %.0f ms): the identification stalled", timeout * 1e3);
+    return formatted(FMT_STRING("no grid sample for {:.0f} ms "),
+                     std::min(now.steady - ff_updated_, 1e9) * 1e3) +
+           formatted(FMT_STRING("(limit {:.0f} ms): the identification stalled"), timeout * 1e3);
   }
   return "";
 }
@@ -162,11 +164,12 @@ void ValveSupervisor::watchClock(Instant now) {
   if (advanced > 0.0 && std::isfinite(advanced)) clock_advanced_ = now.steady;
   if (advanced < -kClockBackTolerance) {
     // The sweep's sine and the step test's timing run on this clock: what they measured no longer fits.
-    clock_jump_ = formatted("the clock jumped back by %.3f s (a bag played again, a clock set)", -advanced);
+    clock_jump_ = formatted(FMT_STRING("the clock jumped back by {:.3f} s (a bag played again, a clock set)"),
+                            -advanced);
     clock_trusted_from_ = now.steady + 2.0 * limits_.signal_timeout;
   }
   if (now.steady - clock_advanced_ > limits_.signal_timeout) {
-    clock_problem_ = formatted("the clock has not advanced for %.0f ms (a stopped /clock?)",
+    clock_problem_ = formatted(FMT_STRING("the clock has not advanced for {:.0f} ms (a stopped /clock?)"),
                                (now.steady - clock_advanced_) * 1e3);
   } else if (now.steady < clock_trusted_from_) {
     clock_problem_ = clock_jump_;
@@ -210,8 +213,8 @@ void ValveSupervisor::noteSafe(Instant now, bool feed_forward) {
 
 std::string ValveSupervisor::feedForwardState() const {
   const double u = output_.last();
-  if (ff_reason_.empty()) return formatted("%.3f V: the identified model's feed-forward", u);
-  if (u != 0.0) return formatted("ramping out, %.3f V: ", u) + ff_reason_;
+  if (ff_reason_.empty()) return formatted(FMT_STRING("{:.3f} V: the identified model's feed-forward"), u);
+  if (u != 0.0) return formatted(FMT_STRING("ramping out, {:.3f} V: "), u) + ff_reason_;
   return "0 V: " + ff_reason_;
 }
 

@@ -589,16 +589,17 @@ void addValveModelTiming(const ServoValveParameters& assumed, TopicDelayEstimate
   constexpr int kValve = static_cast<int>(InputStream::kValve);
   delays->valve_model_timing = assumed.lowFrequencyDelay() / std::sqrt(3.0);
   delays->resolution[kValve] = std::hypot(delays->resolution[kValve], delays->valve_model_timing);
-  delays->message += formatted(
-      "; the valve's offset includes the default valve model's timing error (the spool "
-      "is not measured): +-%.2f ms",
-      1e3 * delays->valve_model_timing);
+  delays->message +=
+      formatted(FMT_STRING("; the valve's offset includes the default valve model's timing error (the spool "
+                           "is not measured): +-{:.2f} ms"),
+                1e3 * delays->valve_model_timing);
 }
 
 std::string valveTimingWarning(double valve_offset, bool corrected) {
   return formatted(
-             "the valve topic's stamps, or the valve's own timing, are %+.2f ms off the default valve "
-             "model's (the spool is not measured, so the two cannot be told apart): ",
+             FMT_STRING(
+                 "the valve topic's stamps, or the valve's own timing, are {:+.2f} ms off the default valve "
+                 "model's (the spool is not measured, so the two cannot be told apart): "),
              1e3 * valve_offset) +
          (corrected ? "corrected as one" : "not corrected") +
          "; configure the valve from a sweep (valve_dead_time, valve_natural_frequency) to tell them apart";

@@ -13,10 +13,14 @@ namespace {
 // The breakpoint in the unit a press engineer reads: bar, mm, mm/s, spool fraction.
 std::string readable(char signal, double value) {
   switch (signal) {
-    case 'p': return formatted("%.1f bar", value * 1e-5);
-    case 'x': return formatted("%.1f mm", value * 1e3);
-    case 'v': return formatted("%.0f mm/s", value * 1e3);
-    default: return formatted("%.3g", value);
+    case 'p':
+      return formatted(FMT_STRING("{:.1f} bar"), value * 1e-5);
+    case 'x':
+      return formatted(FMT_STRING("{:.1f} mm"), value * 1e3);
+    case 'v':
+      return formatted(FMT_STRING("{:.0f} mm/s"), value * 1e3);
+    default:
+      return formatted(FMT_STRING("{:.3g}"), value);
   }
 }
 

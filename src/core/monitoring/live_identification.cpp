@@ -47,8 +47,9 @@ void setResolution(IdentificationConfig& c, const Resolution& r) {
 
 std::string describe(const Resolution& r) {
   return formatted(
-      "sample_period %.3g ms, moving_average_width %.0f, derivative_width %.0f, identification_period "
-      "%.3g ms, velocity_window %.3g ms",
+      FMT_STRING(
+          "sample_period {:.3g} ms, moving_average_width {}, derivative_width {}, identification_period "
+          "{:.3g} ms, velocity_window {:.3g} ms"),
       1e3 * r.sample_period, r.moving_average_width, r.derivative_width, 1e3 * r.identification_period,
       1e3 * r.velocity_window);
 }
@@ -179,10 +180,11 @@ void LiveIdentification::surveyMessage(InputStream stream, const StreamSample& s
   if (survey_->push(stream, sample)) return;
   // The study costs a few tenths of a second: on its own thread, the identification goes on meanwhile.
   study_ = std::async(std::launch::async, [survey = std::move(survey_)] { return survey->choose(); });
-  event(HealthLevel::kOk, LiveEventCode::kSurveyed,
-        formatted("surveyed the first %.0f s of messages: choosing the sample period and filters "
-                  "from them",
-                  settings_.survey_seconds));
+  event(
+      HealthLevel::kOk, LiveEventCode::kSurveyed,
+      formatted(FMT_STRING("surveyed the first {:.0f} s of messages: choosing the sample period and filters "
+                           "from them"),
+                settings_.survey_seconds));
 }
 
 void LiveIdentification::collectStudy() {
@@ -206,15 +208,16 @@ void LiveIdentification::adopt(const SettingsChoice& choice) {
   if (delays_estimated) {
     next.topic_delays = choice.config.topic_delays;
     const auto applied = next.appliedTopicDelays();
-    extra += formatted("; clock offsets position %+.2f ms, valve %+.2f ms against pressure", 1e3 * applied[1],
-                       1e3 * applied[2]);
+    extra += formatted(FMT_STRING("; clock offsets position {:+.2f} ms, valve {:+.2f} ms against pressure"),
+                       1e3 * applied[1], 1e3 * applied[2]);
   }
   const bool valve_changed = choice.valve_from_operation && !valve_from_sweep_;
   if (valve_changed) {
     next.valve = choice.config.valve;
     next.valve_model_drives_free_run = choice.config.valve_model_drives_free_run;
-    extra += formatted("; valve model from the operation (%.0f Hz, damping %.2f, dead time %.2f ms)",
-                       next.valve.natural_frequency, next.valve.damping, 1e3 * next.valve.dead_time);
+    extra += formatted(
+        FMT_STRING("; valve model from the operation ({:.0f} Hz, damping {:.2f}, dead time {:.2f} ms)"),
+        next.valve.natural_frequency, next.valve.damping, 1e3 * next.valve.dead_time);
   }
   // A new grid, or offsets that move by more than a quarter of a sample period, restart the identification.
   // Smaller moves (within the stamps' jitter) and a new valve model alone are handed to the running pipeline
@@ -253,8 +256,9 @@ void LiveIdentification::applyDelayCorrection() {
   config_.topic_delays = *delays;
   event(HealthLevel::kWarn, LiveEventCode::kClockOffsetCorrected,
         formatted(
-            "the topics' stamps are offset (position %+.2f ms, valve %+.2f ms against pressure, estimated "
-            "from the data): corrected, identification restarted; set ~topic_delays to fix them",
+            FMT_STRING("the topics' stamps are offset (position {:+.2f} ms, valve {:+.2f} ms against "
+                       "pressure, estimated "
+                       "from the data): corrected, identification restarted; set ~topic_delays to fix them"),
             config_.topic_delays[1] * 1e3, config_.topic_delays[2] * 1e3));
   rebuild();
 }
@@ -303,11 +307,11 @@ TimingState LiveIdentification::timing() const {
 HealthReport LiveIdentification::settingsHealth() const {
   HealthReport r;
   const Resolution running = resolutionOf(config_);
-  r.add("sample_period [ms]", formatted("%.3g", 1e3 * running.sample_period));
-  r.add("moving_average_width [samples]", formatted("%.0f", running.moving_average_width));
-  r.add("derivative_width [samples]", formatted("%.0f", running.derivative_width));
-  r.add("identification_period [ms]", formatted("%.3g", 1e3 * running.identification_period));
-  r.add("velocity_window [ms]", formatted("%.3g", 1e3 * running.velocity_window));
+  r.add("sample_period [ms]", formatted(FMT_STRING("{:.3g}"), 1e3 * running.sample_period));
+  r.add("moving_average_width [samples]", formatted(FMT_STRING("{}"), running.moving_average_width));
+  r.add("derivative_width [samples]", formatted(FMT_STRING("{}"), running.derivative_width));
+  r.add("identification_period [ms]", formatted(FMT_STRING("{:.3g}"), 1e3 * running.identification_period));
+  r.add("velocity_window [ms]", formatted(FMT_STRING("{:.3g}"), 1e3 * running.velocity_window));
   if (!settings_.choose_settings) {
     r.summary(HealthLevel::kOk, "settings as configured (~choose_settings is false)");
     return r;
@@ -315,10 +319,11 @@ HealthReport LiveIdentification::settingsHealth() const {
   if (survey_) {
     const auto& kept = survey_->messages();
     const double seconds = kept.size() > 1 ? kept.back().second.stamp - kept.front().second.stamp : 0.0;
-    r.summary(HealthLevel::kOk,
-              formatted("surveying the recording to choose the sample period and filters: %.0f of "
-                        "%.0f s (the configured or default settings run meanwhile)",
-                        std::max(seconds, 0.0), settings_.survey_seconds));
+    r.summary(
+        HealthLevel::kOk,
+        formatted(FMT_STRING("surveying the recording to choose the sample period and filters: {:.0f} of "
+                             "{:.0f} s (the configured or default settings run meanwhile)"),
+                  std::max(seconds, 0.0), settings_.survey_seconds));
     return r;
   }
   if (study_.valid()) {
@@ -334,10 +339,10 @@ HealthReport LiveIdentification::settingsHealth() const {
     r.add("why " + s.key, std::string(s.configured ? "configured" : "chosen") + ": " + s.reason);
   }
   if (std::isfinite(choice_->resolution_error)) {
-    r.add("resolution error [bar]", formatted("%.3g", 1e-5 * choice_->resolution_error));
+    r.add("resolution error [bar]", formatted(FMT_STRING("{:.3g}"), 1e-5 * choice_->resolution_error));
   }
-  r.add("pressure noise [bar]", formatted("%.3g", 1e-5 * choice_->survey.pressure_noise));
-  r.add("study time [s]", formatted("%.2f", choice_->seconds_spent));
+  r.add("pressure noise [bar]", formatted(FMT_STRING("{:.3g}"), 1e-5 * choice_->survey.pressure_noise));
+  r.add("study time [s]", formatted(FMT_STRING("{:.2f}"), choice_->seconds_spent));
   if (!choice_->resolution_limit.empty()) {
     r.summary(HealthLevel::kWarn, choice_->resolution_limit);
   } else if (!choice_->warnings.empty()) {

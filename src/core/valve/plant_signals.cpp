@@ -53,9 +53,10 @@ PlantCondition PlantSignals::at(Instant now) const {
     if (std::abs(offset) <= max_clock_offset_) continue;
     c.clock_problem =
         std::string("the ") + kTopicNames[topic] + " topic's stamps are " +
-        (std::isfinite(offset) ? formatted("%.3f s ", std::abs(offset)) + (offset > 0 ? "ahead of" : "behind")
-                               : std::string("not finite against")) +
-        formatted(" the clock (tolerance %g s, sweep_max_clock_offset)", max_clock_offset_);
+        (std::isfinite(offset)
+             ? formatted(FMT_STRING("{:.3f} s "), std::abs(offset)) + (offset > 0 ? "ahead of" : "behind")
+             : std::string("not finite against")) +
+        formatted(FMT_STRING(" the clock (tolerance {:g} s, sweep_max_clock_offset)"), max_clock_offset_);
     break;
   }
   return c;

@@ -46,7 +46,8 @@ std::string ValveExperiments::abort(const std::string& reason) {
     offset = step_test_.request().offset;
   }
   noteEndOf(before);
-  return std::string(nameOf(before)) + formatted(" aborted; the valve command returns to %g V", offset);
+  return std::string(nameOf(before)) +
+         formatted(FMT_STRING(" aborted; the valve command returns to {:g} V"), offset);
 }
 
 void ValveExperiments::supervise(Instant now, const PlantCondition& plant) {

@@ -236,8 +236,8 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
   }
   fit.noise_sigma = noise.sigma();
   if (!(high - low > 20.0 * fit.noise_sigma)) {
-    fit.message = "the spool hardly moved (range " + formatted("%.3g", high - low) + ", noise " +
-                  formatted("%.2g", fit.noise_sigma) + ")";
+    fit.message = "the spool hardly moved (range " + formatted(FMT_STRING("{:.3g}"), high - low) +
+                  ", noise " + formatted(FMT_STRING("{:.2g}"), fit.noise_sigma) + ")";
     return fit;
   }
   std::vector<double> r(samples.size());
@@ -257,9 +257,9 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
   fit.residual_rms = rms(r, spool.size());
   fit.success = std::isfinite(fit.residual_rms) && fit.residual_rms <= 3.0 * fit.noise_sigma;
   fit.message = formatted(
-      "%.1f Hz, damping %.2f, gain %.4g 1/V, dead time %.2f ms from %.0f valve messages of "
-      "operation: spool residual %.2g against a sensor noise of %.2g (%.2g with the model "
-      "it started from)",
+      FMT_STRING("{:.1f} Hz, damping {:.2f}, gain {:.4g} 1/V, dead time {:.2f} ms from {} valve messages of "
+                 "operation: spool residual {:.2g} against a sensor noise of {:.2g} ({:.2g} with the model "
+                 "it started from)"),
       fit.parameters.natural_frequency, fit.parameters.damping, fit.parameters.gain,
       1e3 * fit.parameters.dead_time, fit.samples, fit.residual_rms, fit.noise_sigma, fit.start_residual_rms);
   if (!fit.success) fit.message = "the valve model does not follow the spool: " + fit.message;

@@ -19,19 +19,23 @@ std::string ValveStepTest::start(StepTestRequest request, Instant now, const Pla
     return "the request holds a value that is not finite";
   }
   if (std::abs(request.step) > limits_.max_amplitude) {
-    return formatted("step %.3g V exceeds sweep_max_amplitude %.3g V", request.step, limits_.max_amplitude);
+    return formatted(FMT_STRING("step {:.3g} V exceeds sweep_max_amplitude {:.3g} V"), request.step,
+                     limits_.max_amplitude);
   }
   for (double u : {request.offset, request.offset + request.step}) {
     if (u < limits_.min_voltage || u > limits_.max_voltage) {
-      return formatted("the command %.3g V would leave [sweep_min_voltage, sweep_max_voltage] = [%.3g, ", u,
-                       limits_.min_voltage) +
-             formatted("%.3g] V", limits_.max_voltage);
+      return formatted(
+                 FMT_STRING(
+                     "the command {:.3g} V would leave [sweep_min_voltage, sweep_max_voltage] = [{:.3g}, "),
+                 u, limits_.min_voltage) +
+             formatted(FMT_STRING("{:.3g}] V"), limits_.max_voltage);
     }
   }
   if (!(request.duration > 0.0 && request.duration + request.settle <= limits_.max_duration) ||
       !(request.settle > 0.0)) {
-    return formatted("duration and settle must be > 0 s and together at most sweep_max_duration %.3g s",
-                     limits_.max_duration);
+    return formatted(
+        FMT_STRING("duration and settle must be > 0 s and together at most sweep_max_duration {:.3g} s"),
+        limits_.max_duration);
   }
   if (!std::isfinite(now.clock) || !std::isfinite(now.steady)) return "the clock is not valid";
   const std::string not_at_rest = atRestRefusal(plant, limits_, "step tests");
@@ -61,13 +65,15 @@ std::string ValveStepTest::amplifierLostReason(const PlantCondition& plant) cons
   // amplifier that applies the command may be gone, and a missing spool where one was measured a fault.
   if (!(plant.valve_age <= limits_.signal_timeout)) {
     return formatted(
-        "the valve topic is lost (no message for %.0f ms, limit %.0f ms): the amplifier's echo is "
-        "missing",
+        FMT_STRING(
+            "the valve topic is lost (no message for {:.0f} ms, limit {:.0f} ms): the amplifier's echo is "
+            "missing"),
         std::min(plant.valve_age, 1e9) * 1e3, limits_.signal_timeout * 1e3);
   }
   if (std::isfinite(plant.spool_age) && plant.spool_age > limits_.signal_timeout) {
-    return formatted("the spool signal is lost (measured before, none for %.0f ms, limit %.0f ms)",
-                     std::min(plant.spool_age, 1e9) * 1e3, limits_.signal_timeout * 1e3);
+    return formatted(
+        FMT_STRING("the spool signal is lost (measured before, none for {:.0f} ms, limit {:.0f} ms)"),
+        std::min(plant.spool_age, 1e9) * 1e3, limits_.signal_timeout * 1e3);
   }
   return "";
 }

@@ -54,8 +54,8 @@ std::vector<std::string> SweepLimits::validate() const {
   std::vector<std::string> problems;
   const auto require = [&](const char* key, double value, bool ok, const char* allowed) {
     if (!ok)
-      problems.push_back(std::string(key) + " = " + formatted("%g", value) + " is invalid: allowed " +
-                         allowed);
+      problems.push_back(std::string(key) + " = " + formatted(FMT_STRING("{:g}"), value) +
+                         " is invalid: allowed " + allowed);
   };
   require("sweep_max_amplitude", max_amplitude, std::isfinite(max_amplitude) && max_amplitude > 0.0, "> 0 V");
   require("sweep_min_voltage", min_voltage, std::isfinite(min_voltage), "a finite voltage");
@@ -110,37 +110,42 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
   if (r.frequencies.empty()) return "no frequencies requested";
   if (r.frequencies.size() > 1000) return "more than 1000 frequencies requested";
   for (double f : r.frequencies) {
-    if (!std::isfinite(f) || f <= 0.0) return formatted("frequency %g Hz is invalid: allowed > 0 Hz", f);
+    if (!std::isfinite(f) || f <= 0.0)
+      return formatted(FMT_STRING("frequency {:g} Hz is invalid: allowed > 0 Hz"), f);
     if (f > limits.maxFrequency()) {
-      return formatted(
-          "frequency %g Hz is above %g Hz, a quarter of the valve command rate (fewer than 4 commands per "
-          "period; Nyquist is %g Hz)",
-          f, limits.maxFrequency(), 0.5 / limits.command_period);
+      return formatted(FMT_STRING("frequency {:g} Hz is above {:g} Hz, a quarter of the valve command rate "
+                                  "(fewer than 4 commands per "
+                                  "period; Nyquist is {:g} Hz)"),
+                       f, limits.maxFrequency(), 0.5 / limits.command_period);
     }
   }
   if (!std::isfinite(r.amplitude) || r.amplitude <= 0.0)
-    return formatted("amplitude %g V is invalid: allowed > 0 V", r.amplitude);
+    return formatted(FMT_STRING("amplitude {:g} V is invalid: allowed > 0 V"), r.amplitude);
   if (r.amplitude > limits.max_amplitude) {
-    return formatted("amplitude %g V is above the limit sweep_max_amplitude = %g V", r.amplitude,
-                     limits.max_amplitude);
+    return formatted(FMT_STRING("amplitude {:g} V is above the limit sweep_max_amplitude = {:g} V"),
+                     r.amplitude, limits.max_amplitude);
   }
   if (!std::isfinite(r.offset)) return "offset is not finite";
   if (r.offset - r.amplitude < limits.min_voltage || r.offset + r.amplitude > limits.max_voltage) {
-    return formatted("offset %g V +/- amplitude leaves the command range [%g, %g] V (sweep_min/max_voltage)",
-                     r.offset, limits.min_voltage, limits.max_voltage);
+    return formatted(
+        FMT_STRING(
+            "offset {:g} V +/- amplitude leaves the command range [{:g}, {:g}] V (sweep_min/max_voltage)"),
+        r.offset, limits.min_voltage, limits.max_voltage);
   }
   if (!std::isfinite(r.settle_periods) || r.settle_periods < 0.0)
-    return formatted("settle_periods %g is invalid: allowed >= 0", r.settle_periods);
+    return formatted(FMT_STRING("settle_periods {:g} is invalid: allowed >= 0"), r.settle_periods);
   if (!std::isfinite(r.settle_time) || r.settle_time < 0.0)
-    return formatted("settle_time %g s is invalid: allowed >= 0 s", r.settle_time);
+    return formatted(FMT_STRING("settle_time {:g} s is invalid: allowed >= 0 s"), r.settle_time);
   if (!std::isfinite(r.integration_periods) || r.integration_periods < 1.0 || r.integration_periods > 1e5)
-    return formatted("integration_periods %g is invalid: allowed [1, 1e5]", r.integration_periods);
+    return formatted(FMT_STRING("integration_periods {:g} is invalid: allowed [1, 1e5]"),
+                     r.integration_periods);
   if (!std::isfinite(r.min_integration_time) || r.min_integration_time < 0.0 ||
       r.min_integration_time > 3600.0)
-    return formatted("min_integration_time %g s is invalid: allowed [0, 3600] s", r.min_integration_time);
+    return formatted(FMT_STRING("min_integration_time {:g} s is invalid: allowed [0, 3600] s"),
+                     r.min_integration_time);
   if (r.totalDuration() > limits.max_duration) {
-    return formatted("the sweep would take %.1f s, longer than sweep_max_duration = %g s", r.totalDuration(),
-                     limits.max_duration);
+    return formatted(FMT_STRING("the sweep would take {:.1f} s, longer than sweep_max_duration = {:g} s"),
+                     r.totalDuration(), limits.max_duration);
   }
   {
     // The fit of natural frequency, damping, gain and dead time needs five distinct points: refuse now
@@ -149,8 +154,9 @@ std::string checkSweepRequest(const SweepRequest& r, const SweepLimits& limits) 
     std::sort(distinct.begin(), distinct.end());
     const auto size = std::unique(distinct.begin(), distinct.end()) - distinct.begin();
     if (size < kMinSweepFrequencies) {
-      return formatted("%g distinct frequencies requested: the valve model's fit needs at least 5",
-                       static_cast<double>(size));
+      return formatted(
+          FMT_STRING("{:g} distinct frequencies requested: the valve model's fit needs at least 5"),
+          static_cast<double>(size));
     }
   }
   return "";
@@ -188,14 +194,16 @@ std::string inputsLostReason(const PlantCondition& plant, const SweepLimits& lim
   if (!plant.clock_problem.empty()) return plant.clock_problem;
   if (!(plant.pressure_age <= limits.signal_timeout) || !std::isfinite(plant.pressure)) {
     return formatted(
-        "the chamber pressure is lost (no finite reading for %.0f ms, limit %.0f ms): the pressure "
-        "limit cannot be checked",
+        FMT_STRING(
+            "the chamber pressure is lost (no finite reading for {:.0f} ms, limit {:.0f} ms): the pressure "
+            "limit cannot be checked"),
         std::min(plant.pressure_age, 1e9) * 1e3, limits.signal_timeout * 1e3);
   }
   if (!(plant.position_age <= limits.signal_timeout)) {
     return formatted(
-        "the cushion's position is lost (no reading for %.0f ms, limit %.0f ms): rest cannot be "
-        "confirmed",
+        FMT_STRING(
+            "the cushion's position is lost (no reading for {:.0f} ms, limit {:.0f} ms): rest cannot be "
+            "confirmed"),
         std::min(plant.position_age, 1e9) * 1e3, limits.signal_timeout * 1e3);
   }
   return "";
@@ -206,13 +214,15 @@ std::string inputsLostReason(const PlantCondition& plant, const SweepLimits& lim
 std::string atRestRefusal(const PlantCondition& plant, const SweepLimits& limits, const std::string& tests) {
   if (const std::string lost = inputsLostReason(plant, limits); !lost.empty()) return lost;
   if (plant.pressure > limits.max_pressure) {
-    return formatted("the chamber pressure %.4g bar is above the sweep limit %.1f bar (sweep_max_pressure)",
-                     plant.pressure * 1e-5, limits.max_pressure * 1e-5);
+    return formatted(
+        FMT_STRING(
+            "the chamber pressure {:.4g} bar is above the sweep limit {:.1f} bar (sweep_max_pressure)"),
+        plant.pressure * 1e-5, limits.max_pressure * 1e-5);
   }
   if (!std::isfinite(plant.velocity)) return "the cushion velocity is unknown, so rest cannot be confirmed";
   if (std::abs(plant.velocity) > limits.max_rest_velocity) {
-    return formatted("the cushion is moving (%.4g m/s; at rest below %g m/s): ", plant.velocity,
-                     limits.max_rest_velocity) +
+    return formatted(FMT_STRING("the cushion is moving ({:.4g} m/s; at rest below {:g} m/s): "),
+                     plant.velocity, limits.max_rest_velocity) +
            tests + " run only at rest";
   }
   return "";
@@ -222,12 +232,12 @@ std::string restLostReason(const PlantCondition& plant, const SweepLimits& limit
                            const std::string& bound) {
   if (const std::string lost = inputsLostReason(plant, limits); !lost.empty()) return lost;
   if (plant.pressure > max_pressure) {
-    return formatted("chamber pressure %.4g bar over ", plant.pressure * 1e-5) + bound +
-           formatted(" %.1f bar", max_pressure * 1e-5);
+    return formatted(FMT_STRING("chamber pressure {:.4g} bar over "), plant.pressure * 1e-5) + bound +
+           formatted(FMT_STRING(" {:.1f} bar"), max_pressure * 1e-5);
   }
   if (!std::isfinite(plant.velocity)) return "the cushion velocity is no longer known";
   if (std::abs(plant.velocity) > limits.max_rest_velocity) {
-    return formatted("the cushion started moving (%.4g m/s)", plant.velocity);
+    return formatted(FMT_STRING("the cushion started moving ({:.4g} m/s)"), plant.velocity);
   }
   return "";
 }
@@ -235,19 +245,21 @@ std::string restLostReason(const PlantCondition& plant, const SweepLimits& limit
 std::string durationExceeded(Instant started, Instant now, double expected, double max_duration) {
   const double steady = now.steady - started.steady, clock = now.clock - started.clock;
   if (steady > max_duration) {
-    return formatted("it ran %.1f s (steady clock), beyond sweep_max_duration = %g s", steady, max_duration);
+    return formatted(FMT_STRING("it ran {:.1f} s (steady clock), beyond sweep_max_duration = {:g} s"), steady,
+                     max_duration);
   }
   const double allowed = std::min(2.0 * expected + 5.0, max_duration);
   if (clock > allowed) {
-    return formatted("it ran %.1f s, more than twice its expected %.1f s plus 5 s", clock, expected);
+    return formatted(FMT_STRING("it ran {:.1f} s, more than twice its expected {:.1f} s plus 5 s"), clock,
+                     expected);
   }
   return "";
 }
 
 std::string ValveSweep::start(const SweepRequest& request, Instant now, const PlantCondition& plant) {
   if (running()) {
-    return formatted("a sweep is already running (frequency %g of %g); abort it first", index_ + 1.0,
-                     static_cast<double>(request_.frequencies.size()));
+    return formatted(FMT_STRING("a sweep is already running (frequency {:g} of {:g}); abort it first"),
+                     index_ + 1.0, static_cast<double>(request_.frequencies.size()));
   }
   const std::string invalid = checkSweepRequest(request, limits_);
   if (!invalid.empty()) return invalid;
@@ -281,7 +293,7 @@ void ValveSweep::supervise(Instant now, const PlantCondition& plant) {
              !lost.empty()) {
     abort(lost);
   } else if (!(plant.spool_age <= limits_.signal_timeout)) {
-    abort(formatted("the spool signal is lost (no measured spool for %.0f ms, limit %.0f ms)",
+    abort(formatted(FMT_STRING("the spool signal is lost (no measured spool for {:.0f} ms, limit {:.0f} ms)"),
                     std::min(plant.spool_age, 1e9) * 1e3, limits_.signal_timeout * 1e3));
   }
 }

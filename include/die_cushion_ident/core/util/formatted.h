@@ -1,18 +1,30 @@
 #pragma once
 
-#include <cstdio>
+// fmt header-only: a package built on our installed headers needs libfmt-dev's headers and no link line.
+#ifndef FMT_HEADER_ONLY
+#define FMT_HEADER_ONLY
+#endif
+#include <fmt/format.h>
+
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace die_cushion_ident {
 
-/// printf of numbers into a string, for the numbers in messages and explanations. Every number is passed as
-/// a double (patterns use %g, %f, %e and their kin, never %d).
-template <typename... Numbers>
-std::string formatted(const char* pattern, Numbers... numbers) {
-  char text[768];
-  std::snprintf(text, sizeof(text), pattern, static_cast<double>(numbers)...);
-  return text;
+/// Numbers (and words) into a string by a pattern checked at compile time, for messages and explanations:
+/// `formatted(FMT_STRING("{:.1f} bar"), p * 1e-5)`. A pattern that does not fit its arguments (a precision on
+/// an integer, one placeholder too many) does not compile, arguments keep their types, and the text has no
+/// length limit (the printf formatter this replaces cast every argument to double, left a %d or %s undefined
+/// and cut its output at 768 bytes). Only a pattern wrapped in FMT_STRING is accepted: C++17 checks nothing
+/// else at compile time.
+template <typename Pattern, typename... Args>
+std::string formatted(const Pattern& pattern, Args&&... args) {
+  static_assert(
+      fmt::detail::is_compile_string<Pattern>::value,
+      "wrap the pattern in FMT_STRING(\"...\"): it is then checked against the arguments at compile time");
+  return fmt::format(pattern, std::forward<Args>(args)...);
 }
 
 /// "1st", "2nd", "3rd", "4th", "11th", "32nd": a count as an English ordinal, for "every 32nd cycle".
