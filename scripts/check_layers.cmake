@@ -1,9 +1,15 @@
 # The core's folders are layers, each using only those below it:
-#   util < signal < model < valve < estimation < control < simulation < analysis < monitoring
+#   util < signal < model < valve < estimation < control < simulation
+#     < segmentation < fits < adequacy < settings < trend < analysis < monitoring
+# (the offline analysis by pipeline stage: strokes and their thinning; the model's free run and output-error
+# fits; the verdicts on the model; the settings chosen from a recording; the trend over recordings; the
+# composition OfflineAnalysis).
 # An include of die_cushion_ident/core/<folder>/ from a lower folder runs back up the layers: the build stops
 # and names it. Run by the build before the core library (CMakeLists.txt, target check_layers), or by hand:
 #   cmake -DROOT=<package> -P scripts/check_layers.cmake
-set(LAYERS util signal model valve estimation control simulation analysis monitoring)
+set(LAYERS util signal model valve estimation control simulation segmentation fits adequacy settings trend analysis
+  monitoring)
+
 file(GLOB_RECURSE FILES "${ROOT}/include/die_cushion_ident/core/*.h" "${ROOT}/src/core/*.cpp" "${ROOT}/src/core/*.h")
 set(UPWARD "")
 foreach(FILE ${FILES})

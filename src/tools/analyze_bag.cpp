@@ -29,7 +29,7 @@
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
-#include "die_cushion_ident/core/analysis/settings_from_recording.h"
+#include "die_cushion_ident/core/settings/settings_from_recording.h"
 #include "die_cushion_ident/core/util/batch_pipe.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
