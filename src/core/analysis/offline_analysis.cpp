@@ -9,7 +9,7 @@
 
 #include "die_cushion_ident/core/adequacy/cycle_group_fits.h"
 #include "die_cushion_ident/core/adequacy/effect_onset.h"
-#include "die_cushion_ident/core/adequacy/formula_search.h"
+#include "die_cushion_ident/core/adequacy/formula_proposals.h"
 #include "die_cushion_ident/core/adequacy/held_out_test.h"
 #include "die_cushion_ident/core/adequacy/implausible_parameters.h"
 #include "die_cushion_ident/core/fits/parameter_uncertainty.h"

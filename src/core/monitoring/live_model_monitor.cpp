@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "die_cushion_ident/core/adequacy/formula_search.h"
+#include "die_cushion_ident/core/adequacy/formula_proposals.h"
 #include "die_cushion_ident/core/adequacy/model_assessment.h"
 
 namespace die_cushion_ident {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <memory>
 
+#include "die_cushion_ident/core/adequacy/formula_proposals.h"
 #include "die_cushion_ident/core/adequacy/formula_search.h"
 #include "die_cushion_ident/core/model/effects/custom_flow_effect.h"
 #include "simulation_fixtures.h"

@@ -34,12 +34,4 @@ std::vector<FormulaProposal> proposeFormulas(const std::vector<GridSample>& grid
                                              double structured_floor, const EffectRankingOptions& ranking = {},
                                              const FormulaSearchOptions& options = {});
 
-/// Runs proposeFormulas on top of the ranking's recommended model (the configured one plus its steps) and
-/// says in the ranking's conclusion which formula to add. Library effects keep priority: the search
-/// starts from the model with every missing library effect added.
-void addFormulaProposals(const std::vector<GridSample>& grid, const StrokeSegmentation& strokes,
-                         const IdentificationConfig& config, EffectRankingResult* ranking,
-                         const EffectRankingOptions& ranking_options = {},
-                         const FormulaSearchOptions& options = {});
-
 }  // namespace die_cushion_ident
