@@ -23,9 +23,8 @@
 #include <sstream>
 
 #include "analysis_config.h"
-#include "analysis_writer.h"
 #include "argument_parser.h"
-#include "bag_stream_reader.h"
+#include "bag/bag_stream_reader.h"
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
@@ -33,6 +32,7 @@
 #include "die_cushion_ident/core/util/batch_pipe.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
+#include "output/analysis_writer.h"
 
 namespace die_cushion_ident {
 namespace {

@@ -27,13 +27,13 @@
 
 #include "argument_parser.h"
 #include "command_line.h"
-#include "csv_file.h"
 #include "die_cushion_ident/core/adequacy/analysis_warning.h"
 #include "die_cushion_ident/core/adequacy/verdict.h"
 #include "die_cushion_ident/core/trend/parameter_trend.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
-#include "output_files.h"
+#include "output/csv_file.h"
+#include "output/output_files.h"
 
 namespace fs = std::filesystem;
 

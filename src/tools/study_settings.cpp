@@ -21,10 +21,10 @@
 #include "analysis_config.h"
 #include "argument_parser.h"
 #include "command_line.h"
-#include "csv_file.h"
 #include "die_cushion_ident/core/settings/settings_study.h"
 #include "die_cushion_ident/core/util/formatted.h"
-#include "output_files.h"
+#include "output/csv_file.h"
+#include "output/output_files.h"
 
 namespace die_cushion_ident {
 namespace {

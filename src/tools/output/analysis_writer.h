@@ -5,7 +5,7 @@
 #include <string>
 
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
-#include "output_files.h"
+#include "output/output_files.h"
 
 namespace die_cushion_ident {
 

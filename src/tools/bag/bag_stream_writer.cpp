@@ -1,11 +1,11 @@
-#include "bag_stream_writer.h"
+#include "bag/bag_stream_writer.h"
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
 
-#include "output_files.h"
+#include "output/output_files.h"
 
 namespace die_cushion_ident {
 

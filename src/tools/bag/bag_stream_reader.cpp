@@ -1,4 +1,4 @@
-#include "bag_stream_reader.h"
+#include "bag/bag_stream_reader.h"
 
 #include <bzlib.h>
 #include <roslz4/lz4s.h>

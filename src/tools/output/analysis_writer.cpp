@@ -1,4 +1,4 @@
-#include "analysis_writer.h"
+#include "output/analysis_writer.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -9,15 +9,15 @@
 #include <regex>
 #include <stdexcept>
 
-#include "bag_stream_writer.h"
-#include "csv_file.h"
+#include "bag/bag_stream_writer.h"
 #include "die_cushion_ident/FrequencyResponse.h"
 #include "die_cushion_ident/ModelComparison.h"
 #include "die_cushion_ident/ParameterEstimate.h"
 #include "die_cushion_ident/ValveModel.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
-#include "output_files.h"
+#include "output/csv_file.h"
+#include "output/output_files.h"
 
 namespace die_cushion_ident {
 
@@ -601,7 +601,7 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
     csv.text("expression").text("signal").text("signal_value").text("residual_flow").text("term_flow").endLine();
     for (const auto& p : r.ranking.proposals) {
       for (std::size_t b = 0; b < p.bin_signal.size(); ++b) {
-        csv.quoted(p.spec()).text(p.signal).number(p.bin_signal[b], 8).number(p.bin_residual[b], 8);
+        csv.quoted(p.spec()).text(std::string(1, p.signal)).number(p.bin_signal[b], 8).number(p.bin_residual[b], 8);
         csv.number(p.bin_term[b], 8).endLine();
       }
     }

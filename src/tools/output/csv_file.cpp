@@ -1,10 +1,10 @@
-#include "csv_file.h"
+#include "output/csv_file.h"
 
 #include <charconv>
 #include <cmath>
 #include <utility>
 
-#include "output_files.h"
+#include "output/output_files.h"
 
 namespace die_cushion_ident {
 
