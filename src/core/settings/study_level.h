@@ -5,6 +5,7 @@
 // the survey on its grid and one model run free on it) and Richardson's estimate of the error left.
 
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <utility>
 #include <vector>
