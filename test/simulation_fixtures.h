@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
+#include "die_cushion_ident/core/adequacy/model_assessment.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
-#include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 
 namespace die_cushion_ident {
 namespace testing {

@@ -23,18 +23,26 @@
 #include <sstream>
 
 #include "analysis_config.h"
-#include "analysis_writer.h"
 #include "argument_parser.h"
-#include "bag_stream_reader.h"
+#include "bag/bag_inputs.h"
+#include "bag/bag_stream_reader.h"
 #include "command_line.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "die_cushion_ident/core/analysis/offline_analysis.h"
-#include "die_cushion_ident/core/analysis/settings_from_recording.h"
+#include "die_cushion_ident/core/settings/settings_from_recording.h"
 #include "die_cushion_ident/core/util/batch_pipe.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "message_conversions.h"
+#include "output/analysis_writer.h"
+#include "survey_then_analysis.h"
 
 namespace die_cushion_ident {
+
+[[noreturn]] void fail(int code, const std::string& message) {
+  std::cerr << "analyze_bag: " << message << "\n";
+  std::exit(code);
+}
+
 namespace {
 
 const char* kUsage =
@@ -67,11 +75,6 @@ struct Options {
   bool fixed_settings = false;  // no survey: the configured (or default) settings as they are
 };
 
-[[noreturn]] void fail(int code, const std::string& message) {
-  std::cerr << "analyze_bag: " << message << "\n";
-  std::exit(code);
-}
-
 Options parseArguments(int argc, char** argv) {
   Options o;
   ArgumentParser arguments;
@@ -94,312 +97,9 @@ Options parseArguments(int argc, char** argv) {
   return o;
 }
 
-// What one pass over the bag's input topics found.
-struct BagPass {
-  std::uint64_t mismatched = 0;        // messages of another definition (md5sum)
-  std::uint64_t damaged = 0;           // messages whose bytes do not decode
-  std::uint64_t joint_missing = 0;     // JointStates without the configured joint
-  std::uint64_t without_position = 0;  // JointStates without a position for the cushion
-  std::string joint_problem, joint_ambiguity;
-  std::string read_error;  // the bag could not be read to the end
-  std::vector<BagStreamReader::Damage> damage;  // parts that failed their checks (the rest was read)
-  std::uint64_t messages_missing = 0;           // listed by the index, not delivered by the chunks
-  std::uint64_t records_unreadable = 0;         // message records in the file that could not be read
-  std::uint64_t messages_read = 0;              // every topic's
-  bool cut_off = false, data_lost = false;
-  bool unclosed = false;  // killed while recording: the last chunk still open (rosbag record's .bag.active)
-  std::uint64_t bytes_read = 0, file_size = 0;
-  std::set<std::string> present;    // input topics seen
-  std::string oil_temperature_problem;  // the oil temperature topic is there but cannot be read
-  std::string listing;              // every topic of the bag, for a message when none is an input
-  double first = NAN, last = NAN;   // [s] record times of the first and last message
-};
-
-// Where the messages go: the survey keeps the recording's first seconds; once it is complete (or the bag
-// ends) it chooses the settings, and the analysis starts with them on what was kept, then takes the rest as
-// it comes. Without a survey (--fixed-settings, a second reading) the analysis takes them from the start.
-class SurveyThenAnalysis {
- public:
-  SurveyThenAnalysis(const IdentificationConfig& config, const std::set<std::string>& configured, bool survey, int jobs,
-                     const std::function<void(const std::string&)>& log)
-      : config_(config), jobs_(jobs), log_(log) {
-    // Without a survey the analysis starts at once; the survey's messages still give the clock offsets
-    // where they are to be estimated.
-    if (survey || !config.topicDelaysSet()) {
-      survey_ = std::make_unique<SettingsFromRecording>(config, configured);
-      survey_->setJobs(jobs);
-    }
-    if (!survey) start(config);
-  }
-  /// [s] how long the bag's index says the recording is (a hint for reserving memory).
-  void expect(double seconds) {
-    expected_ = seconds;
-    if (analysis_) analysis_->reserve(expected_, 48 * 3600.0);
-  }
-  void push(InputStream stream, const StreamSample& sample) {
-    if (!analysis_) {
-      if (!survey_->push(stream, sample)) chooseAndStart();
-      return;
-    }
-    analysis_->push(stream, sample);
-    if (survey_) survey_->push(stream, sample);  // keeps nothing once it has its seconds
-  }
-  /// The optional oil temperature: kept while the survey runs (it does not need it), then the analysis's.
-  void pushOilTemperature(const StreamSample& sample) {
-    if (!analysis_) {
-      survey_oil_.push_back(sample);
-      return;
-    }
-    analysis_->pushOilTemperature(sample);
-  }
-  /// The analysis, its settings chosen (at the end of a recording shorter than the survey, now).
-  OfflineAnalysis& analysis() {
-    if (!analysis_) chooseAndStart();
-    return *analysis_;
-  }
-  const std::optional<SettingsChoice>& choice() const { return choice_; }
-  /// Without a survey: the topics' clock offsets on its messages at the finest period they support
-  /// (SettingsFromRecording::clockOffsets); nothing where it kept none.
-  std::optional<TopicDelayEstimate> clockOffsets() const {
-    if (!survey_ || survey_->messages().empty()) return std::nullopt;
-    return survey_->clockOffsets();
-  }
-  const IdentificationConfig& config() const { return config_; }
-
- private:
-  void start(const IdentificationConfig& config) {
-    config_ = config;
-    analysis_ = std::make_unique<OfflineAnalysis>(config_);
-    analysis_->setJobs(jobs_);
-    if (expected_ > 0.0) analysis_->reserve(expected_, 48 * 3600.0);
-  }
-  void chooseAndStart() {
-    log_("choosing the sample period and filters from the recording's first " +
-         formatted(FMT_STRING("{:.0f} s"),
-                   survey_->messages().empty()
-                       ? 0.0
-                       : survey_->messages().back().second.stamp - survey_->messages().front().second.stamp));
-    choice_ = survey_->choose();
-    for (const auto& setting : choice_->settings) {
-      log_(setting.key + " = " + formatted(FMT_STRING("{:g}"), setting.value) + ": " + setting.reason);
-    }
-    start(choice_->config);
-    // The kept messages in their order, the oil temperature's among them by stamp.
-    std::size_t oil = 0;
-    for (const auto& [stream, sample] : survey_->messages()) {
-      while (oil < survey_oil_.size() && !(survey_oil_[oil].stamp > sample.stamp))
-        analysis_->pushOilTemperature(survey_oil_[oil++]);
-      analysis_->push(stream, sample);
-    }
-    while (oil < survey_oil_.size()) analysis_->pushOilTemperature(survey_oil_[oil++]);
-    survey_oil_.clear();
-    survey_.reset();
-  }
-
-  IdentificationConfig config_;
-  int jobs_;
-  std::function<void(const std::string&)> log_;
-  std::unique_ptr<SettingsFromRecording> survey_;
-  std::vector<StreamSample> survey_oil_;  // the oil temperature's messages while the survey runs
-  std::unique_ptr<OfflineAnalysis> analysis_;
-  std::optional<SettingsChoice> choice_;
-  double expected_ = 0.0;
-};
-
-const char* const kInputTypes[kInputStreamCount] = {"sensor_msgs/FluidPressure", "sensor_msgs/JointState",
-                                                    "die_cushion_ident/ValveSignal"};
-// The optional oil temperature topic's index among the connections' classes (after the three inputs).
-constexpr int kOilTemperatureTopic = kInputStreamCount;
-constexpr const char* kOilTemperatureType = "sensor_msgs/Temperature";
-
-// The bag's connections as input streams: each classified once (its topic and definition compared), not
-// each of its messages: its input stream (kOilTemperatureTopic for the optional oil temperature), -1 for
-// another topic, -2 for a definition (md5sum) other than this package's.
-class InputConnections {
- public:
-  InputConnections(const std::string names[], const std::string& oil_temperature)
-      : names_(names), oil_temperature_(oil_temperature) {}
-  int streamOf(const BagStreamReader::Connection& c) const {
-    for (int s = 0; s < kInputStreamCount; ++s) {
-      if (c.topic == names_[s]) return s;
-    }
-    return c.topic == oil_temperature_ ? kOilTemperatureTopic : -1;
-  }
-  int classify(const BagStreamReader::Connection* c) {
-    static const std::string kMd5[kInputStreamCount + 1] = {
-        ros::message_traits::MD5Sum<sensor_msgs::FluidPressure>::value(),
-        ros::message_traits::MD5Sum<sensor_msgs::JointState>::value(),
-        ros::message_traits::MD5Sum<ValveSignal>::value(),
-        ros::message_traits::MD5Sum<sensor_msgs::Temperature>::value()};
-    for (const auto& [known, s] : classified_) {
-      if (known == c) return s;
-    }
-    int s = streamOf(*c);
-    if (s >= 0 && c->md5sum != kMd5[s]) s = -2;
-    classified_.emplace_back(c, s);
-    return s;
-  }
-
- private:
-  const std::string* names_;
-  std::string oil_temperature_;
-  std::vector<std::pair<const BagStreamReader::Connection*, int>> classified_;
-};
-
-// One input message decoded into `sample` (the cushion's joint picked from a JointState); false, counted in
-// `pass` and `input`, where it cannot be used.
-bool decodeInput(const BagStreamReader::Message& m, int s, JointSelector& joints,
-                 sensor_msgs::JointState& joint_state, StreamSample& sample, BagPass& pass,
-                 AnalysisInput& input) {
-  bool decoded = false;
-  if (s == 0) {
-    decoded = decodeFluidPressure(m.data, m.size, &sample.stamp, &sample.first);
-  } else if (s == 2) {
-    decoded = decodeValveSignal(m.data, m.size, &sample.stamp, &sample.first, &sample.second);
-  } else {
-    double stamp = 0.0;
-    decoded = decodeJointState(m.data, m.size, &stamp, &joint_state.name, &joint_state.position,
-                               &joint_state.velocity);
-    joint_state.header.stamp = stamp >= 0.0 && stamp < 4e9 ? ros::Time(stamp) : ros::Time(0);
-    if (decoded) {
-      switch (joints.select(joint_state, &sample)) {
-        case JointSelector::Result::kSelected:
-          sample.stamp = stamp;
-          break;
-        case JointSelector::Result::kJointMissing:
-          ++input.unusable[s];
-          ++pass.joint_missing;
-          pass.joint_problem = joints.problem();
-          return false;
-        case JointSelector::Result::kNoPosition:
-          ++input.unusable[s];
-          ++pass.without_position;
-          return false;
-      }
-    }
-  }
-  if (!decoded) {
-    ++input.unusable[s];
-    ++pass.damaged;
-  }
-  return decoded;
+std::string milliseconds(double seconds) {
+  return formatted(FMT_STRING("{:+.2f} ms"), seconds * 1e3);
 }
-
-// A topic of the wrong type: the reading stops (and the analysis's thread with it) before the tool exits.
-struct WrongTopicType {
-  std::string message;
-};
-
-std::unique_ptr<BagStreamReader> openBag(const std::string& path) {
-  try {
-    return std::make_unique<BagStreamReader>(path);
-  } catch (const std::exception& e) {
-    fail(3, std::string("cannot open bag: ") + e.what());
-  }
-}
-
-// What the reader found besides the messages: damage, messages the index lists but no chunk holds, a cut.
-void keepReadersFindings(const BagStreamReader& reader, BagPass& pass) {
-  pass.damage = reader.damage();
-  pass.messages_missing = reader.messagesMissing();
-  pass.records_unreadable = reader.recordsUnreadable();
-  pass.messages_read = reader.messages();
-  pass.unclosed = reader.unclosed();
-  pass.cut_off = reader.cutOff();
-  pass.data_lost = reader.dataLost();
-  pass.bytes_read = reader.bytesRead();
-}
-
-// Feeds the input topics of `path` to `analysis` in recorded order (BagStreamReader: memory independent of
-// the recording's length, damage ends the reading with a reason); counts per topic in `input`. The analysis
-// takes the messages on a thread of its own while this one reads and decodes the next (BatchPipe): one after
-// the other, an hour's bag took the reading's 5 s plus the pipeline's.
-BagPass readInputs(const std::string& path, const std::string names[], const std::string& oil_topic,
-                   const std::string& joint_name, SurveyThenAnalysis& analysis, AnalysisInput& input,
-                   const std::function<void(const std::string&)>& log) {
-  BagPass pass;
-  JointSelector joints(joint_name);
-  const std::unique_ptr<BagStreamReader> reader = openBag(path);
-  pass.file_size = reader->fileSize();
-  // A hint from the index, bounded by what the file can hold (a message is at least ~40 bytes on disk).
-  analysis.expect(reader->indexedSpan());
-  log("reading " + std::to_string(pass.file_size >> 20) + " MB from " + input.bag);
-  for (int s = 0; s < kInputStreamCount; ++s) input.messages[s] = input.unusable[s] = 0;
-  input.oil_temperature_messages = input.oil_temperature_unusable = 0;
-  auto last_report = std::chrono::steady_clock::now();
-  std::uint64_t done = 0;
-  sensor_msgs::JointState joint_state;
-  InputConnections connections(names, oil_topic);
-  BatchPipe<std::pair<int, StreamSample>> to_analysis([&analysis](const std::pair<int, StreamSample>& m) {
-    if (m.first == kOilTemperatureTopic) {
-      analysis.pushOilTemperature(m.second);
-    } else {
-      analysis.push(static_cast<InputStream>(m.first), m.second);
-    }
-  });
-  const auto on_connection = [&](const BagStreamReader::Connection& c) {
-    pass.listing += "\n  " + c.topic + " (" + c.datatype + ")";
-    const int s = connections.streamOf(c);
-    if (s < 0) return;
-    if (s == kOilTemperatureTopic) {  // optional: a wrong type loses the temperature, not the analysis
-      if (c.datatype != kOilTemperatureType) {
-        pass.oil_temperature_problem = "topic " + oil_topic + " has type " + c.datatype + ", expected " +
-                                       kOilTemperatureType + ": the oil temperature was not read";
-      }
-      return;
-    }
-    if (c.datatype != kInputTypes[s]) {
-      throw WrongTopicType{"topic " + names[s] + " has type " + c.datatype + ", expected " + kInputTypes[s] +
-                           " (set the topics in the config file if the inputs are elsewhere)"};
-    }
-    pass.present.insert(names[s]);
-  };
-  const auto on_message = [&](const BagStreamReader::Message& m) {
-    if (std::isnan(pass.first)) pass.first = m.time;
-    pass.last = m.time;
-    const int s = connections.classify(m.connection);
-    if (s == -1) return;
-    if (s == -2) {
-      ++pass.mismatched;
-      return;
-    }
-    if (s == kOilTemperatureTopic) {
-      if (!pass.oil_temperature_problem.empty()) return;
-      ++input.oil_temperature_messages;
-      StreamSample sample{0.0, 0.0, NAN};
-      if (!decodeTemperature(m.data, m.size, &sample.stamp, &sample.first)) {
-        ++input.oil_temperature_unusable;
-        ++pass.damaged;
-        return;
-      }
-      to_analysis.push({kOilTemperatureTopic, sample});
-      return;
-    }
-    ++input.messages[s];
-    StreamSample sample{0.0, 0.0, NAN};
-    if (!decodeInput(m, s, joints, joint_state, sample, pass, input)) return;
-    to_analysis.push({s, sample});
-    // Progress every 2 s on long bags.
-    if ((++done & 0xFFF) == 0 && std::chrono::steady_clock::now() - last_report > std::chrono::seconds(2)) {
-      last_report = std::chrono::steady_clock::now();
-      log(std::to_string(100 * reader->bytesRead() / std::max<std::uint64_t>(pass.file_size, 1)) + " % read (" +
-          std::to_string(done) + " messages)");
-    }
-  };
-  try {
-    if (!reader->read(on_message, on_connection)) pass.read_error = reader->error();
-  } catch (const WrongTopicType& wrong) {
-    to_analysis.finish();
-    fail(3, wrong.message);
-  }
-  to_analysis.finish();  // the analysis's exception, if any, from here on this thread
-  keepReadersFindings(*reader, pass);
-  input.records_unreadable = pass.records_unreadable;
-  pass.joint_ambiguity = joints.ambiguity();
-  return pass;
-}
-
-std::string milliseconds(double seconds) { return formatted(FMT_STRING("{:+.2f} ms"), seconds * 1e3); }
 
 // The configuration file and the command line's model, checked; warnings for the geometry left at defaults.
 struct Configuration {

@@ -10,14 +10,14 @@
 #include <sstream>
 
 #include "argument_parser.h"
-#include "bag_stream_writer.h"
+#include "bag/bag_stream_writer.h"
 #include "command_line.h"
 #include "die_cushion_ident/core/simulation/die_cushion_simulator.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
 #include "die_cushion_ident/core/valve/plant_signals.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 #include "message_conversions.h"
-#include "output_files.h"
+#include "output/output_files.h"
 
 using namespace die_cushion_ident;
 

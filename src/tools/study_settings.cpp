@@ -21,10 +21,10 @@
 #include "analysis_config.h"
 #include "argument_parser.h"
 #include "command_line.h"
-#include "csv_file.h"
-#include "die_cushion_ident/core/analysis/settings_study.h"
+#include "die_cushion_ident/core/settings/settings_study.h"
 #include "die_cushion_ident/core/util/formatted.h"
-#include "output_files.h"
+#include "output/csv_file.h"
+#include "output/output_files.h"
 
 namespace die_cushion_ident {
 namespace {
@@ -74,8 +74,8 @@ void writeChart(OutputFiles& files, const std::string& path, const std::string& 
       << "' stroke='black'/>\n";
   for (int i = 0; i <= 4; ++i) {
     const double y = y0 + (y1 - y0) * i / 4, x = x0 + (x1 - x0) * i / 4;
-    out << "<text x='" << left - 6 << "' y='" << Y(y) + 4 << "' text-anchor='end'>"
-        << formatted(FMT_STRING("{:.3g}"), y) << "</text>\n";
+    out << "<text x='" << left - 6 << "' y='" << Y(y) + 4 << "' text-anchor='end'>" << formatted(FMT_STRING("{:.3g}"), y)
+        << "</text>\n";
     out << "<text x='" << X(x) << "' y='" << H - bottom + 16 << "' text-anchor='middle'>"
         << formatted(FMT_STRING("{:.3g}"), x) << "</text>\n";
   }

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <vector>
 
-#include "bag_stream_reader.h"
+#include "bag/bag_stream_reader.h"
 
 namespace die_cushion_ident {
 namespace fuzz {

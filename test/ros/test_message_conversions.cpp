@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "die_cushion_ident/EffectRanking.h"
-#include "die_cushion_ident/core/analysis/verdict.h"
+#include "die_cushion_ident/core/adequacy/verdict.h"
 #include "die_cushion_ident/core/valve/valve_sweep.h"
 #include "message_conversions.h"
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <unistd.h>
 
-#include "bag_stream_reader.h"
-#include "bag_stream_writer.h"
+#include "bag/bag_stream_reader.h"
+#include "bag/bag_stream_writer.h"
 #include "die_cushion_ident/ValveSignal.h"
 
 namespace die_cushion_ident {

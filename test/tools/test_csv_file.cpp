@@ -8,8 +8,8 @@
 #include <sstream>
 #include <string>
 
-#include "csv_file.h"
-#include "output_files.h"
+#include "output/csv_file.h"
+#include "output/output_files.h"
 
 namespace die_cushion_ident {
 namespace {

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "bag_stream_reader.h"
+#include "bag/bag_stream_reader.h"
 #include "die_cushion_ident/ValveSignal.h"
 #include "killed_recording.h"
 

@@ -7,11 +7,12 @@
 #include <cstdio>
 #include <limits>
 
-#include "die_cushion_ident/core/analysis/cycle_group_fits.h"
-#include "die_cushion_ident/core/analysis/effect_onset.h"
-#include "die_cushion_ident/core/analysis/formula_search.h"
-#include "die_cushion_ident/core/analysis/held_out_test.h"
-#include "die_cushion_ident/core/analysis/parameter_uncertainty.h"
+#include "die_cushion_ident/core/adequacy/cycle_group_fits.h"
+#include "die_cushion_ident/core/adequacy/effect_onset.h"
+#include "die_cushion_ident/core/adequacy/formula_proposals.h"
+#include "die_cushion_ident/core/adequacy/held_out_test.h"
+#include "die_cushion_ident/core/adequacy/implausible_parameters.h"
+#include "die_cushion_ident/core/fits/parameter_uncertainty.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
 
@@ -194,31 +195,6 @@ void OfflineAnalysis::push(InputStream stream, const StreamSample& sample) {
   if (stream == InputStream::kValve && std::isfinite(sample.stamp) && std::isfinite(sample.first)) {
     valve_filter_.push({sample.stamp, sample.first, sample.second}, &valve_);
   }
-}
-
-std::vector<std::string> implausibleParameters(const HydraulicModel& model, const HydraulicEstimate& estimate,
-                                               double sigmas, std::vector<std::string>* uncertain) {
-  std::vector<std::string> problems;
-  const auto& infos = model.parameterInfos();
-  for (std::size_t i = 0; i < infos.size() && i < estimate.parameters.size(); ++i) {
-    const double value = estimate.parameters[i].value, std = estimate.parameters[i].std;
-    const bool positive_required = i == HydraulicModel::kBulkModulus || i == HydraulicModel::kValveFlowGain;
-    const double low = infos[i].lower_bound, high = infos[i].upper_bound;
-    if (std::isfinite(value) && value >= low && value <= high && !(positive_required && value <= 0.0)) continue;
-    char text[256];
-    std::snprintf(text, sizeof(text), "%s = %.4g +/- %.2g %s is outside its physical range [%.3g, %.3g]",
-                  infos[i].name.c_str(), value, std, infos[i].unit.c_str(), low, high);
-    // Outside, but within its uncertainty of the range: the data do not pin it down, which is no fault.
-    const double distance = value < low ? low - value : value - high;
-    const bool consistent = std::isfinite(value) && std::isfinite(std) && distance <= sigmas * std &&
-                            !(positive_required && value <= 0.0);
-    if (consistent) {
-      if (uncertain) uncertain->push_back(text);
-    } else {
-      problems.push_back(text);
-    }
-  }
-  return problems;
 }
 
 void OfflineAnalysis::reserve(double seconds, double max_seconds) {

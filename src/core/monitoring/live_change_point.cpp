@@ -3,7 +3,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/adequacy/model_assessment.h"
 
 namespace die_cushion_ident {
 

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "die_cushion_ident/core/analysis/offline_analysis.h"
+#include "die_cushion_ident/core/adequacy/implausible_parameters.h"
 #include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {

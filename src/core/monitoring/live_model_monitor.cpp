@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include "die_cushion_ident/core/analysis/formula_search.h"
-#include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/adequacy/formula_proposals.h"
+#include "die_cushion_ident/core/adequacy/model_assessment.h"
 
 namespace die_cushion_ident {
 

@@ -10,7 +10,7 @@
 #include <memory>
 #include <random>
 
-#include "die_cushion_ident/core/analysis/held_out_test.h"
+#include "die_cushion_ident/core/adequacy/held_out_test.h"
 #include "die_cushion_ident/core/control/pressure_feed_forward.h"
 #include "simulation_fixtures.h"
 

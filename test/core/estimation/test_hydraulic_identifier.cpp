@@ -8,10 +8,10 @@
 #include <climits>
 #include <limits>
 
-#include "die_cushion_ident/core/analysis/held_out_test.h"
-#include "die_cushion_ident/core/analysis/model_assessment.h"
-#include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/adequacy/held_out_test.h"
+#include "die_cushion_ident/core/adequacy/model_assessment.h"
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
+#include "die_cushion_ident/core/model/effect_library.h"
 #include "simulation_fixtures.h"
 
 using namespace die_cushion_ident;

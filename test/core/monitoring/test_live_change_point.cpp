@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/analysis/model_assessment.h"
+#include "die_cushion_ident/core/adequacy/model_assessment.h"
 #include "die_cushion_ident/core/model/effect_library.h"
 #include "die_cushion_ident/core/monitoring/live_model_monitor.h"
 #include "die_cushion_ident/core/simulation/press_class.h"

@@ -8,18 +8,18 @@
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/analysis/effect_onset.h"
-#include "die_cushion_ident/core/analysis/effect_ranking.h"
+#include "die_cushion_ident/core/adequacy/effect_onset.h"
+#include "die_cushion_ident/core/adequacy/effect_ranking.h"
+#include "die_cushion_ident/core/adequacy/model_assessment.h"
 #include "die_cushion_ident/core/analysis/estimate_series.h"
-#include "die_cushion_ident/core/analysis/evenly_thinned_cycles.h"
-#include "die_cushion_ident/core/analysis/model_assessment.h"
-#include "die_cushion_ident/core/analysis/output_error_refinement.h"
-#include "die_cushion_ident/core/analysis/parameter_uncertainty.h"
-#include "die_cushion_ident/core/analysis/reference_temperature.h"
-#include "die_cushion_ident/core/analysis/settings_from_recording.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
+#include "die_cushion_ident/core/fits/output_error_refinement.h"
+#include "die_cushion_ident/core/fits/parameter_uncertainty.h"
+#include "die_cushion_ident/core/segmentation/evenly_thinned_cycles.h"
+#include "die_cushion_ident/core/settings/settings_from_recording.h"
 #include "die_cushion_ident/core/signal/message_noise.h"
+#include "die_cushion_ident/core/trend/reference_temperature.h"
 #include "die_cushion_ident/core/valve/recorded_sweep.h"
 #include "die_cushion_ident/core/valve/step_response.h"
 
@@ -104,12 +104,6 @@ struct OfflineResult {
   /// the reasons are in `warnings`; analyze_bag exits with 5.
   bool partial = false;
 };
-
-/// Each parameter outside its physical range (ParameterInfo bounds) by more than `sigmas` standard
-/// deviations, in words; empty when all are plausible. Those outside but within `sigmas` of the range go to
-/// `uncertain` (may be null). A bulk modulus or flow gain at or below zero is always implausible.
-std::vector<std::string> implausibleParameters(const HydraulicModel& model, const HydraulicEstimate& estimate,
-                                               double sigmas, std::vector<std::string>* uncertain);
 
 /// Significance of the test in parametersThatVaryOverTheRecording (per parameter), and how many times their
 /// own stds the groups must disagree. A group of one cycle has a Newey-West std too small (few rows for the

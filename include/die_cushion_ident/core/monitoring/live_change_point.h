@@ -7,9 +7,9 @@
 #include <optional>
 #include <vector>
 
-#include "die_cushion_ident/core/analysis/effect_onset.h"
-#include "die_cushion_ident/core/analysis/stroke_segmenter.h"
+#include "die_cushion_ident/core/adequacy/effect_onset.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/segmentation/stroke_segmenter.h"
 
 namespace die_cushion_ident {
 

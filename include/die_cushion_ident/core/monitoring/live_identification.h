@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "die_cushion_ident/core/analysis/settings_from_recording.h"
 #include "die_cushion_ident/core/estimation/estimate_scatter.h"
 #include "die_cushion_ident/core/estimation/identification_pipeline.h"
 #include "die_cushion_ident/core/monitoring/health_report.h"
 #include "die_cushion_ident/core/monitoring/live_diagnostics.h"
 #include "die_cushion_ident/core/monitoring/live_model_monitor.h"
+#include "die_cushion_ident/core/settings/settings_from_recording.h"
 #include "die_cushion_ident/core/signal/message_noise.h"
 
 namespace die_cushion_ident {

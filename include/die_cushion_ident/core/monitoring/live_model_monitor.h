@@ -8,14 +8,14 @@
 #include <optional>
 #include <vector>
 
-#include "die_cushion_ident/core/analysis/effect_ranking.h"
-#include "die_cushion_ident/core/analysis/free_run_pressure.h"
-#include "die_cushion_ident/core/analysis/stroke_phase_classifier.h"
+#include "die_cushion_ident/core/adequacy/effect_ranking.h"
 #include "die_cushion_ident/core/estimation/hydraulic_identifier.h"
 #include "die_cushion_ident/core/estimation/identification_config.h"
 #include "die_cushion_ident/core/estimation/topic_delay_estimator.h"
+#include "die_cushion_ident/core/fits/free_run_pressure.h"
 #include "die_cushion_ident/core/model/stroke_phase.h"
 #include "die_cushion_ident/core/monitoring/live_change_point.h"
+#include "die_cushion_ident/core/segmentation/stroke_phase_classifier.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 
 namespace die_cushion_ident {
