@@ -42,8 +42,8 @@ TEST(CsvFile, WritesNumbersAsPrintfsGeneralFormatWithTheStatedDigits) {
   csv.endLine();
   csv.close();
   char expected[256];
-  std::snprintf(expected, sizeof(expected), "%.10g,%.6g,%.3g,%.10g,%.10g,-42\n", 1.0 / 3.0, 1.0 / 3.0, 1.234e-12,
-                1e21, -0.5);
+  std::snprintf(expected, sizeof(expected), "%.10g,%.6g,%.3g,%.10g,%.10g,-42\n", 1.0 / 3.0, 1.0 / 3.0,
+                1.234e-12, 1e21, -0.5);
   EXPECT_EQ(contents(path), expected);
   std::remove(path.c_str());
 }
