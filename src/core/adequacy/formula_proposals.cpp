@@ -5,15 +5,13 @@
 #include <cstdio>
 #include <string>
 
+#include "die_cushion_ident/core/util/formatted.h"
+
 namespace die_cushion_ident {
 
 namespace {
 
-std::string inBar(double pa) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.2g", pa * 1e-5);
-  return text;
-}
+std::string inBar(double pa) { return formatted(FMT_STRING("{:.2g}"), pa * 1e-5); }
 
 // A library step that only took part of this error may be superseded by the formula: kept only where
 // it still lowers the held-out error of the model with the formula, as a missing effect would. Returns the

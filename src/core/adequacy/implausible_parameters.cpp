@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "die_cushion_ident/core/util/formatted.h"
+
 namespace die_cushion_ident {
 
 std::vector<std::string> implausibleParameters(const HydraulicModel& model, const HydraulicEstimate& estimate,
@@ -15,9 +17,9 @@ std::vector<std::string> implausibleParameters(const HydraulicModel& model, cons
     const double low = infos[i].lower_bound, high = infos[i].upper_bound;
     if (std::isfinite(value) && value >= low && value <= high && !(positive_required && value <= 0.0))
       continue;
-    char text[256];
-    std::snprintf(text, sizeof(text), "%s = %.4g +/- %.2g %s is outside its physical range [%.3g, %.3g]",
-                  infos[i].name.c_str(), value, std, infos[i].unit.c_str(), low, high);
+    const std::string text =
+        formatted(FMT_STRING("{} = {:.4g} +/- {:.2g} {} is outside its physical range [{:.3g}, {:.3g}]"),
+                  infos[i].name, value, std, infos[i].unit, low, high);
     // Outside, but within its uncertainty of the range: the data do not pin it down, which is no fault.
     const double distance = value < low ? low - value : value - high;
     const bool consistent = std::isfinite(value) && std::isfinite(std) && distance <= sigmas * std &&

@@ -62,22 +62,22 @@ std::vector<std::string> parametersThatVaryOverTheRecording(const CycleGroupFits
     const double before = halves[0] / half_weights[0], after = halves[1] / half_weights[1];
     // The part of Q that one step between the halves explains.
     const double q_between = std::pow(after - before, 2) / (1.0 / half_weights[0] + 1.0 / half_weights[1]);
-    char text[600];
     if (q_between > 0.5 * q) {
-      std::snprintf(text, sizeof(text),
-                    "%s drifts over the recording: %.3g %s in the first half of the press cycles, %.3g in the "
-                    "second (%d groups of cycles fitted alone disagree %.1f times more than their stds say, "
-                    "p = %.2g): the plant changed while it was recorded (air drawn in, the oil warming, a seal "
-                    "wearing) or an effect the model lacks grows with time; %.3g is an average",
-                    p.name.c_str(), before, p.unit.c_str(), after, g_count, scatter, p_value, p.value);
+      found.push_back(formatted(
+          FMT_STRING(
+              "{} drifts over the recording: {:.3g} {} in the first half of the press cycles, {:.3g} in the "
+              "second ({} groups of cycles fitted alone disagree {:.1f} times more than their stds say, "
+              "p = {:.2g}): the plant changed while it was recorded (air drawn in, the oil warming, a seal "
+              "wearing) or an effect the model lacks grows with time; {:.3g} is an average"),
+          p.name, before, p.unit, after, g_count, scatter, p_value, p.value));
     } else {
-      std::snprintf(text, sizeof(text),
-                    "%s varies from stroke to stroke: %d groups of press cycles fitted alone disagree %.1f "
-                    "times more than their stds say (p = %.2g), without a drift: the model misses an effect "
-                    "that weighs differently from stroke to stroke; treat the std of %.3g %s as %.2g",
-                    p.name.c_str(), g_count, scatter, p_value, p.value, p.unit.c_str(), scatter * p.std);
+      found.push_back(formatted(
+          FMT_STRING(
+              "{} varies from stroke to stroke: {} groups of press cycles fitted alone disagree {:.1f} "
+              "times more than their stds say (p = {:.2g}), without a drift: the model misses an effect "
+              "that weighs differently from stroke to stroke; treat the std of {:.3g} {} as {:.2g}"),
+          p.name, g_count, scatter, p_value, p.value, p.unit, scatter * p.std));
     }
-    found.push_back(text);
   }
   return found;
 }
@@ -256,19 +256,21 @@ void warnRejectedMessages(const IdentificationConfig& config, OfflineResult& r) 
     const StreamHealth& h = r.health[s];
     const char* name = inputStreamName(static_cast<InputStream>(s));
     if (h.implausible > 0) {
-      char text[320];
-      std::snprintf(text, sizeof(text),
-                    "%llu %s messages outside the physically plausible range [%.4g, %.4g]%s were rejected like "
-                    "non-finite ones (see the *_plausible_* configuration keys)",
-                    static_cast<unsigned long long>(h.implausible), name, bounds[s].min_first, bounds[s].max_first,
-                    s == 0 ? "" : s == 1 ? " (or |velocity| above max_plausible_velocity)" : " (or |spool| > 1.5)");
+      const std::string text = formatted(
+          FMT_STRING(
+              "{} {} messages outside the physically plausible range [{:.4g}, {:.4g}]{} were rejected like "
+              "non-finite ones (see the *_plausible_* configuration keys)"),
+          h.implausible, name, bounds[s].min_first, bounds[s].max_first,
+          s == 0   ? ""
+          : s == 1 ? " (or |velocity| above max_plausible_velocity)"
+                   : " (or |spool| > 1.5)");
       r.warnings.push_back({WarningCode::kMessagesRejected, text});
     }
     if (h.wild_stamps > 0) {
-      char text[256];
-      std::snprintf(text, sizeof(text),
-                    "%llu %s messages had stamps far off the other topics' (the last %+.4g s) and were rejected",
-                    static_cast<unsigned long long>(h.wild_stamps), name, h.last_wild_offset);
+      const std::string text = formatted(
+          FMT_STRING(
+              "{} {} messages had stamps far off the other topics' (the last {:+.4g} s) and were rejected"),
+          h.wild_stamps, name, h.last_wild_offset);
       r.warnings.push_back({WarningCode::kMessagesRejected, text});
     }
   }
@@ -447,12 +449,11 @@ void OfflineAnalysis::fitTheWholeRecording(const HydraulicModel& model, bool vel
   tell("fitting the model to the whole recording");
   r.model = fitOnCycles(grid_.grid(), r.strokes, config_, INT_MIN, INT_MAX);
   if (r.model.updates == 0 && highest < config_.min_pressure) {
-    char text[320];
-    std::snprintf(text, sizeof(text),
-                  "the pressure never exceeds min_pressure (%.3g Pa; highest %.4g): no parameters identified. "
-                  "Is it recorded in bar or psi? FluidPressure.fluid_pressure is in Pa",
-                  config_.min_pressure, highest);
-    cannotRun(r, text);
+    cannotRun(r,
+              formatted(FMT_STRING("the pressure never exceeds min_pressure ({:.3g} Pa; highest {:.4g}): no "
+                                   "parameters identified. Is it recorded in bar or psi? "
+                                   "FluidPressure.fluid_pressure is in Pa"),
+                        config_.min_pressure, highest));
     return;
   }
   if (r.model.updates == 0) {
@@ -576,13 +577,13 @@ void OfflineAnalysis::explain(OfflineResult* result, const std::function<void(co
   if (!r.step_responses.empty()) {
     const StepResponse& step = r.step_responses.front();
     if (config_.resampler.sample_period > step.recommendedMaxSamplingTime()) {
-      char text[300];
-      std::snprintf(text, sizeof(text),
-                    "the sampling time (sample_period %.4g s) exceeds a tenth of the pressure's t63 (%.4g s "
-                    "from the step test at %.3f s): the identification cannot resolve the pressure build-up; "
-                    "set sample_period to at most %.4g s",
-                    config_.resampler.sample_period, step.t63, step.start, step.recommendedMaxSamplingTime());
-      r.warnings.push_back({WarningCode::kSamplingTooCoarse, text});
+      r.warnings.push_back(
+          {WarningCode::kSamplingTooCoarse,
+           formatted(
+               FMT_STRING("the sampling time (sample_period {:.4g} s) exceeds a tenth of the pressure's t63 "
+                          "({:.4g} s from the step test at {:.3f} s): the identification cannot resolve the "
+                          "pressure build-up; set sample_period to at most {:.4g} s"),
+               config_.resampler.sample_period, step.t63, step.start, step.recommendedMaxSamplingTime())});
     }
   }
 }

@@ -32,9 +32,7 @@ std::string minus(char signal, double breakpoint) {
 }  // namespace
 
 std::string compactNumber(double value) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.4g", value);
-  std::string s = text;
+  std::string s = formatted(FMT_STRING("{:.4g}"), value);
   // 1.21e+07 -> 1.21e7, 1e-05 -> 1e-5
   const auto e = s.find('e');
   if (e != std::string::npos) {

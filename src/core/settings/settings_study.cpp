@@ -2,15 +2,15 @@
 
 #include <algorithm>
 #include <atomic>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <mutex>
 #include <thread>
 
-#include <climits>
-
 #include "die_cushion_ident/core/adequacy/held_out_test.h"
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
 
@@ -180,31 +180,33 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points,
       best_period = period;
     }
   }
-  char text[1600];
-  std::snprintf(
-      text, sizeof(text),
-      "Integral form (the default): at the configured widths (b %d, d %d) the largest bias is %+.2f +- %.2f %% "
-      "(%s; +- the seeds' standard error); over the widths the largest bias of a parameter lies between "
-      "%+.2f +- %.2f %% (%s at b %d, d %d) and %+.2f +- %.2f %% (%s at b %d, d %d). "
-      "Least bias + 2 std: b %d, d %d (%.2f %%, worst "
-      "parameter) - set moving_average_width %d and derivative_width %d. The paper's filtered-derivative form "
-      "is biased by up to %+.1f %% (%s at b %d, d %d), least at b %d, d %d (%.2f %%). Sampling time at the "
-      "configured widths: %.4g s gives the least bias + 2 std (%.2f %%); keep it at most a tenth of the "
-      "pressure's t63 (step test).",
+  return formatted(
+      FMT_STRING(
+          "Integral form (the default): at the configured widths (b {}, d {}) the largest bias is {:+.2f} +- "
+          "{:.2f} % "
+          "({}; +- the seeds' standard error); over the widths the largest bias of a parameter lies between "
+          "{:+.2f} +- {:.2f} % ({} at b {}, d {}) and {:+.2f} +- {:.2f} % ({} at b {}, d {}). "
+          "Least bias + 2 std: b {}, d {} ({:.2f} %, worst "
+          "parameter) - set moving_average_width {} and derivative_width {}. The paper's filtered-derivative "
+          "form "
+          "is biased by up to {:+.1f} % ({} at b {}, d {}), least at b {}, d {} ({:.2f} %). Sampling time at "
+          "the "
+          "configured widths: {:.4g} s gives the least bias + 2 std ({:.2f} %); keep it at most a tenth of "
+          "the "
+          "pressure's t63 (step test)."),
       base.moving_average_width, base.derivative_width,
       configured != integral.end() ? 100 * configured->second.bias : 0.0,
       configured != integral.end() ? 100 * configured->second.bias_standard_error : 0.0,
-      configured != integral.end() ? configured->second.parameter.c_str() : "not studied",
+      configured != integral.end() ? configured->second.parameter : "not studied",
       100 * integral_low->second.bias, 100 * integral_low->second.bias_standard_error,
-      integral_low->second.parameter.c_str(), integral_low->first.first, integral_low->first.second,
+      integral_low->second.parameter, integral_low->first.first, integral_low->first.second,
       100 * integral_high->second.bias, 100 * integral_high->second.bias_standard_error,
-      integral_high->second.parameter.c_str(), integral_high->first.first, integral_high->first.second,
-      integral_best->first.first, integral_best->first.second,
-      100 * integral_best->second.error, integral_best->first.first, integral_best->first.second,
-      100 * derivative_worst->second.bias, derivative_worst->second.parameter.c_str(),
-      derivative_worst->first.first, derivative_worst->first.second, derivative_best->first.first,
-      derivative_best->first.second, 100 * derivative_best->second.error, best_period, 100 * best_period_error);
-  return text;
+      integral_high->second.parameter, integral_high->first.first, integral_high->first.second,
+      integral_best->first.first, integral_best->first.second, 100 * integral_best->second.error,
+      integral_best->first.first, integral_best->first.second, 100 * derivative_worst->second.bias,
+      derivative_worst->second.parameter, derivative_worst->first.first, derivative_worst->first.second,
+      derivative_best->first.first, derivative_best->first.second, 100 * derivative_best->second.error,
+      best_period, 100 * best_period_error);
 }
 
 }  // namespace die_cushion_ident

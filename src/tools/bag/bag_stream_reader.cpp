@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "bag/bag_record_format.h"
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
 
@@ -62,10 +63,7 @@ double BagStreamReader::indexedSpan() const {
 }
 
 std::string BagStreamReader::atByte(std::uint64_t position) const {
-  char where[64];
-  std::snprintf(where, sizeof(where), " at byte %llu of %llu", static_cast<unsigned long long>(position),
-                static_cast<unsigned long long>(file_size_));
-  return where;
+  return formatted(FMT_STRING(" at byte {} of {}"), position, file_size_);
 }
 
 bool BagStreamReader::fail(const std::string& why) {

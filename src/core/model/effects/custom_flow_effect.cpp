@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "die_cushion_ident/core/model/effect_library.h"
+#include "die_cushion_ident/core/util/formatted.h"
 
 namespace die_cushion_ident {
 
@@ -69,11 +70,9 @@ double CustomFlowEffect::evaluate(const HydraulicSignals& signals, double dp) co
 namespace {
 
 std::string describeSignals(const HydraulicSignals& s) {
-  char text[160];
-  std::snprintf(text, sizeof(text),
-                "p = %g Pa, dp = %g Pa/s, x = %g m, v = %g m/s, u = %g V, y = %g, V = %g m^3", s.p, s.dp, s.x,
-                s.v, s.u, s.y, s.V);
-  return text;
+  return formatted(FMT_STRING("p = {:g} Pa, dp = {:g} Pa/s, x = {:g} m, v = {:g} m/s, u = {:g} V, y = {:g}, "
+                              "V = {:g} m^3"),
+                   s.p, s.dp, s.x, s.v, s.u, s.y, s.V);
 }
 
 }  // namespace
@@ -89,8 +88,7 @@ double CustomFlowEffect::probedValue(const HydraulicSignals& s) const {
                                 "' cannot be evaluated at " + describeSignals(s) + ": " + e.GetMsg());
   }
   if (!std::isfinite(value) || std::abs(value) > kAbsurd) {
-    char number[32];
-    std::snprintf(number, sizeof(number), "%g", value);
+    const std::string number = formatted(FMT_STRING("{:g}"), value);
     throw std::invalid_argument(
         "custom effect '" + name_ + "': '" + expression_ + "' evaluates to " + number + " at " +
         describeSignals(s) + " (inside the operating range): a flow term must stay finite and below 1e30 " +
