@@ -121,11 +121,8 @@ SimulatorConfig plantToStudy(const IdentificationConfig& base, const std::string
 void writeCsv(OutputFiles& files, const std::string& out, const std::vector<SettingsStudyPoint>& points) {
   constexpr int kDigits = 6;  // the study's bias and std are Monte Carlo figures good to a few per cent
   CsvFile csv(files.add(out + "/settings_study.csv"));
-  for (const char* column : {"form", "moving_average_width", "derivative_width", "sample_period", "parameter",
-                             "bias", "std", "runs", "bias_standard_error"}) {
-    csv.text(column);
-  }
-  csv.endLine();
+  csv.header({"form", "moving_average_width", "derivative_width", "sample_period", "parameter", "bias", "std",
+              "runs", "bias_standard_error"});
   for (const auto& p : points) {
     csv.text(regressionFormName(p.form)).integer(p.moving_average_width).integer(p.derivative_width);
     csv.number(p.sample_period, kDigits).text(p.parameter).number(p.bias, kDigits).number(p.std, kDigits);

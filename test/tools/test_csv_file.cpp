@@ -28,7 +28,7 @@ std::string contents(const std::string& path) {
 TEST(CsvFile, SeparatesTheFieldsOfARowAndStartsEachRowAfresh) {
   const std::string path = temporaryPath("rows.csv");
   CsvFile csv(path);
-  csv.text("t").text("p").endLine();
+  csv.header({"t", "p"});
   csv.fixed(1.5, 6).number(2e5).endLine();
   csv.close();
   EXPECT_EQ(contents(path), "t,p\n1.500000,200000\n");

@@ -56,11 +56,8 @@ static_assert(kComparisonDecimation == ModelAssessment::kModelledStride, "the co
 
 void writeComparisonCsv(const std::string& path, const OfflineResult& r, const std::vector<GridSample>& grid) {
   CsvFile csv(path);
-  for (const char* column : {"t", "measured_pressure", "modelled_pressure", "residual", "position", "velocity",
-                             "spool_position", "phase"}) {
-    csv.text(column);
-  }
-  csv.endLine();
+  csv.header({"t", "measured_pressure", "modelled_pressure", "residual", "position", "velocity",
+              "spool_position", "phase"});
   const auto& modelled = r.assessment.modelled;
   for (std::size_t k = 0; k < modelled.size() && comparisonIndex(k) < grid.size(); ++k) {
     const std::size_t i = comparisonIndex(k);
@@ -80,11 +77,8 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
   if (r.valve) {
     // Six significant digits: the points' own scatter is far larger.
     CsvFile csv(files.add(directory + "/frequency_response.csv"));
-    for (const char* column : {"frequency", "re", "im", "magnitude", "phase", "magnitude_std", "phase_std",
-                               "harmonic_distortion", "distorted"}) {
-      csv.text(column);
-    }
-    csv.endLine();
+    csv.header({"frequency", "re", "im", "magnitude", "phase", "magnitude_std", "phase_std",
+                "harmonic_distortion", "distorted"});
     for (const auto& p : r.valve->points) {
       csv.number(p.frequency, 6).number(p.re, 6).number(p.im, 6).number(p.magnitude, 6).number(p.phase, 6);
       csv.number(p.magnitude_std, 6).number(p.phase_std, 6).number(p.harmonic_distortion, 6);
@@ -96,7 +90,7 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
     const FrequencyResponse response = toFrequencyResponseMsg(r.valve->points, r.valve->fit, "finished", ros::Time());
     if (!response.fit_frequency.empty()) {
       CsvFile fit(files.add(directory + "/valve_fit.csv"));
-      fit.text("frequency").text("magnitude").text("phase").endLine();
+      fit.header({"frequency", "magnitude", "phase"});
       for (std::size_t k = 0; k < response.fit_frequency.size(); ++k) {
         fit.number(response.fit_frequency[k]).number(response.fit_magnitude[k]).number(response.fit_phase[k]);
         fit.endLine();
@@ -108,7 +102,7 @@ std::vector<std::string> writeSmallCsvs(const std::string& directory, const Offl
   if (!r.ranking.proposals.empty()) {
     // For the report: each proposal's residual against its signal, with the fitted term drawn over it.
     CsvFile csv(files.add(directory + "/proposals.csv"));
-    csv.text("expression").text("signal").text("signal_value").text("residual_flow").text("term_flow").endLine();
+    csv.header({"expression", "signal", "signal_value", "residual_flow", "term_flow"});
     for (const auto& p : r.ranking.proposals) {
       for (std::size_t b = 0; b < p.bin_signal.size(); ++b) {
         csv.quoted(p.spec()).text(std::string(1, p.signal)).number(p.bin_signal[b], 8).number(p.bin_residual[b], 8);

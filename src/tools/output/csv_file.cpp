@@ -17,6 +17,11 @@ void CsvFile::separate() {
   row_started_ = true;
 }
 
+void CsvFile::header(std::initializer_list<const char*> columns) {
+  for (const char* column : columns) text(column);
+  endLine();
+}
+
 CsvFile& CsvFile::text(const std::string& text) {
   separate();
   buffer_ += text;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <fstream>
+#include <initializer_list>
 #include <string>
 
 namespace die_cushion_ident {
@@ -19,6 +20,8 @@ class CsvFile {
 
   explicit CsvFile(std::string path);
 
+  /// A header row of fixed column names, ended.
+  void header(std::initializer_list<const char*> columns);
   /// A word or a column name, as it is (no comma or quote in it).
   CsvFile& text(const std::string& text);
   /// Text that may hold commas (a file path, an expression): in double quotes, a quote in it doubled.
