@@ -1,7 +1,8 @@
 #pragma once
 
 // How the topics' message rates limit the free run (private to src/core/settings): the position's rate by
-// Richardson's estimate over thinned position messages, the valve's by commands between its messages.
+// Richardson's estimate over thinned position messages, a velocity derived from them by the same over a
+// wider window, the valve's by commands between its messages.
 
 #include "die_cushion_ident/core/model/hydraulic_model.h"
 #include "die_cushion_ident/core/settings/settings_from_recording.h"
@@ -13,6 +14,11 @@ namespace die_cushion_ident::settings_detail {
 void studyPositionRate(const Messages& messages, const IdentificationConfig& at_chosen,
                        const HydraulicModel& model, const ParameterVector& theta, const Level& native,
                        double allowed_change, double noise, SettingsChoice& choice);
+/// The error a velocity derived from the positions leaves, by Richardson's estimate at second order from the
+/// velocity window doubled (rate_study.cpp); nothing where the position topic carries a velocity.
+void studyDerivedVelocity(const Messages& messages, const IdentificationConfig& at_chosen,
+                          const HydraulicModel& model, const ParameterVector& theta, const Level& native,
+                          double allowed_change, double noise, SettingsChoice& choice);
 /// Whether commands a faster amplifier applied between valve messages `interval` [s] apart can move a valve
 /// of natural frequency `frequency` [Hz] (`hold`: valve_command_hold).
 bool commandsBetweenMessagesMatter(double frequency, double interval, double hold);

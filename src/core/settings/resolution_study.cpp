@@ -259,6 +259,8 @@ StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double fi
   // free run ran 46 times the noise, did not converge as the period halved and was told "structured").
   if (!choice_.resolution_not_converging)
     studyPositionRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, choice_);
+  if (!choice_.resolution_not_converging)
+    studyDerivedVelocity(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, choice_);
   studyValveRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, jobs_, choice_);
   return outcome;
 }

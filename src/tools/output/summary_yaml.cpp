@@ -156,6 +156,9 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
   if (std::isfinite(choice->position_rate_error)) {
     out << YAML::Key << "position_rate_error" << YAML::Value << choice->position_rate_error;
   }
+  if (std::isfinite(choice->velocity_error)) {
+    out << YAML::Key << "velocity_error" << YAML::Value << choice->velocity_error;
+  }
   if (std::isfinite(choice->valve_rate_error)) {
     out << YAML::Key << "valve_rate_error" << YAML::Value << choice->valve_rate_error;
   }
