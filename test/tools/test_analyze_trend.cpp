@@ -67,7 +67,8 @@ TEST(AnalyzeTrend, FindsTheRisingLeakageWithinThreeRecordingsAndReusesResults) {
   // Nothing before the onset: the same directory without the rise reports no change.
   ASSERT_EQ(std::system(("mkdir -p " + kWork + "/steady && cp " + kWork + "/bags/day0[0-7].bag " + kWork +
                          "/steady/").c_str()), 0);
-  auto steady = run(kTools + "/analyze_trend " + kWork + "/steady --out " + kWork + "/steady_out --effects leakage");
+  auto steady = run(kTools + "/analyze_trend " + kWork + "/steady --out " + kWork +
+                    "/steady_out --effects leakage --jobs 2");
   ASSERT_EQ(steady.status, 0) << steady.output;
   EXPECT_EQ(trendOf("steady_out")["changes"].size(), 0u) << steady.output;
 
