@@ -201,6 +201,7 @@ void LiveIdentification::collectStudy() {
 
 void LiveIdentification::adopt(const SettingsChoice& choice) {
   choice_ = choice;
+  monitor_->setResolution(choice.resolution_error, choice.resolution_remedy);
   IdentificationConfig next = config_;
   setResolution(next, resolutionOf(choice.config));
   std::string extra;

@@ -136,15 +136,16 @@ void LiveModelMonitor::startRanking() {
     }
   }
   job_ = std::async(std::launch::async, [grid = std::move(grid), config = config_, generation = generation_,
-                                         onset = std::move(onset)] {
+                                         onset = std::move(onset), options = ranking_options_] {
     const auto started = std::chrono::steady_clock::now();
     Job job;
     job.generation = generation;
     const StrokeSegmentation strokes = segmentStrokes(grid);
     job.ranking.cycles = strokes.cycles;
-    job.ranking.result = rankEffects(grid, strokes, config);
+    job.ranking.result = rankEffects(grid, strokes, config, options);
     // The formula search only where structured error is left, as offline without --propose.
-    if (job.ranking.result.residual_unexplained) addFormulaProposals(grid, strokes, config, &job.ranking.result);
+    if (job.ranking.result.residual_unexplained)
+      addFormulaProposals(grid, strokes, config, &job.ranking.result, options);
     if (onset) {
       job.ranking.result.conclusion = onset->onset.explanation + ". " +
                                       (strokes.cycles < EffectRankingOptions().min_held_out_cycles

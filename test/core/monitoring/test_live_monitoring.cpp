@@ -146,6 +146,30 @@ TEST(LiveModelMonitor, RanksTheWindowOnItsOwnThreadAndDropsARankingOfAnOldModel)
   for (std::size_t i = before; i < live.rankings.size(); ++i) EXPECT_EQ(live.rankings[i].cycles, 0);
 }
 
+// The survey's resolution error reaches the live ranking as it reaches the offline one (issue 47): an effect
+// whose held-out gain lies within twice the recording's own resolution error is resolution-limited, with what
+// to record, not missing (before, the node ranked with no resolution at all). Here a leak the model lacks,
+// against a resolution error set beyond its gain.
+TEST(LiveModelMonitor, RanksWithTheRecordingsOwnResolution) {
+  const SimulatorConfig plant = randomPlant(5, {"leakage"});
+  LiveMonitorSettings settings;
+  settings.ranking_window = 24.0;
+  settings.ranking_period = 24.0;
+  LivePlant live(plant, {}, settings);
+  live.monitor.setResolution(50e5, "record the cushion's velocity with its position");
+  live.run(25.0);
+  waitForRanking(&live);
+  ASSERT_FALSE(live.rankings.empty());
+  const LiveRanking& last = live.rankings.back();
+  ASSERT_GE(last.cycles, 5);
+  ASSERT_FALSE(last.result.candidates.empty());
+  const auto& leak = last.result.candidates.front();
+  EXPECT_EQ(leak.effect, "leakage");
+  EXPECT_EQ(leak.verdict, Verdict::kInconclusive) << leak.explanation;
+  EXPECT_NE(leak.explanation.find("resolution-limited; record the cushion's velocity"), std::string::npos)
+      << leak.explanation;
+}
+
 // The node's live reconfiguration (dynamic_reconfigure) changes the window and the period while samples flow:
 // both must hold from the next sample, without a restart that would throw the comparison away.
 TEST(LiveModelMonitor, NewRankingSettingsHoldFromTheNextSampleWithoutARestart) {

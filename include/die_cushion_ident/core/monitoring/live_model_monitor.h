@@ -1,11 +1,13 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <deque>
 #include <future>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "die_cushion_ident/core/adequacy/effect_ranking.h"
@@ -72,6 +74,14 @@ class LiveModelMonitor {
   /// [Pa] the pressure sensor's noise from its messages, for the rankings where the grid lies between them
   /// (IdentificationConfig::grid_pressure_noise; 0: estimated on the grid).
   void setGridPressureNoise(double sigma) { config_.grid_pressure_noise = sigma; }
+  /// The recording's own resolution error [Pa] and what to record instead (the survey's
+  /// SettingsChoice::resolution_error and resolution_remedy), for the rankings started from now on: as
+  /// offline, an effect whose gain lies within twice it is resolution-limited, not missing, and the floor a
+  /// formula search must clear includes it.
+  void setResolution(double error, const std::string& remedy) {
+    ranking_options_.resolution_error = std::isfinite(error) ? error : 0.0;
+    ranking_options_.resolution_remedy = remedy;
+  }
 
   /// One grid sample with the identifier's state after it: the free-run step, the phase, the errors.
   /// Starts a ranking when one is due and none runs; returns a ranking that finished since the last call.
@@ -129,6 +139,7 @@ class LiveModelMonitor {
 
   IdentificationConfig config_;
   LiveMonitorSettings settings_;
+  EffectRankingOptions ranking_options_;
   std::unique_ptr<FreeRunPressure> free_run_;
   StrokePhaseClassifier classifier_;
 
