@@ -14,11 +14,15 @@ namespace die_cushion_ident::settings_detail {
 void studyPositionRate(const Messages& messages, const IdentificationConfig& at_chosen,
                        const HydraulicModel& model, const ParameterVector& theta, const Level& native,
                        double allowed_change, double noise, SettingsChoice& choice);
-/// The error a velocity derived from the positions leaves, by Richardson's estimate at second order from the
+/// The error a velocity derived from the positions leaves, by Richardson's estimate at first order from the
 /// velocity window doubled (rate_study.cpp); nothing where the position topic carries a velocity.
-void studyDerivedVelocity(const Messages& messages, const IdentificationConfig& at_chosen,
+/// `window` [s]: the velocity window the analysis derives over (analysisVelocityWindow).
+void studyDerivedVelocity(const Messages& messages, const IdentificationConfig& at_chosen, double window,
                           const HydraulicModel& model, const ParameterVector& theta, const Level& native,
                           double allowed_change, double noise, SettingsChoice& choice);
+/// [s] the velocity window the analysis derives over at `period` [s]: two periods, or the configured window
+/// where it is configured (at least two periods).
+double analysisVelocityWindow(double configured_window, bool configured, double period);
 /// Whether commands a faster amplifier applied between valve messages `interval` [s] apart can move a valve
 /// of natural frequency `frequency` [Hz] (`hold`: valve_command_hold).
 bool commandsBetweenMessagesMatter(double frequency, double interval, double hold);

@@ -260,7 +260,10 @@ StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double fi
   if (!choice_.resolution_not_converging)
     studyPositionRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, choice_);
   if (!choice_.resolution_not_converging)
-    studyDerivedVelocity(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, choice_);
+    studyDerivedVelocity(messages_, at_chosen,
+                         analysisVelocityWindow(choice_.config.velocity_window, velocity_window_configured_,
+                                                outcome.chosen_period),
+                         model_, theta_, level(chosen), allowed_change, noise, choice_);
   studyValveRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, jobs_, choice_);
   return outcome;
 }

@@ -244,13 +244,12 @@ void chooseVelocityWindow(const IdentificationConfig& configured_config, bool co
   ChosenSetting velocity;
   velocity.key = "velocity_window";
   velocity.configured = configured;
-  if (velocity.configured) {
-    c.velocity_window = std::max(configured_config.velocity_window, 2.0 * c.resampler.sample_period);
-    velocity.reason = "configured";
-  } else {
-    c.velocity_window = 2.0 * c.resampler.sample_period;
-    velocity.reason = "two sample periods: the derived velocity follows the impact as closely as the grid allows";
-  }
+  c.velocity_window =
+      analysisVelocityWindow(configured_config.velocity_window, configured, c.resampler.sample_period);
+  velocity.reason =
+      configured
+          ? "configured"
+          : "two sample periods: the derived velocity follows the impact as closely as the grid allows";
   velocity.value = c.velocity_window;
   choice.settings.push_back(velocity);
 }
@@ -340,6 +339,7 @@ SettingsChoice SettingsFromRecording::choose() const {
   if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
   choice.seconds_spent_on.valve_model = valve_seconds;
   ResolutionStudy study(messages_, periods, jobs_, choice);
+  study.setVelocityWindowConfigured(configured_.count("velocity_window") > 0);
   const StudyOutcome outcome = study.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
   const IdentificationConfig chosen = atPeriod(choice.config, outcome.chosen_period, outcome.shortest_drawing);
   addSetting(choice, "sample_period", outcome.chosen_period, periodReason(outcome, choice, finest_interval, noise));
