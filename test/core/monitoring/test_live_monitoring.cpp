@@ -49,6 +49,14 @@ LiveMonitorSettings noRanking() {
   return s;
 }
 
+// A ranking of the last 24 s every 24 s: the first starts at once (an empty window), the second at 24 s.
+LiveMonitorSettings rankingEvery24Seconds() {
+  LiveMonitorSettings s;
+  s.ranking_window = 24.0;
+  s.ranking_period = 24.0;
+  return s;
+}
+
 TEST(LiveModelMonitor, FollowsTheRightModelWithinTheNoiseAndNamesTheWorstPhaseOfAWrongOne) {
   const SimulatorConfig plant = randomPlant(3, {"leakage"});
   LivePlant right(plant, {"leakage"}, noRanking());
@@ -115,10 +123,7 @@ void waitForRanking(LivePlant* live) {
 
 TEST(LiveModelMonitor, RanksTheWindowOnItsOwnThreadAndDropsARankingOfAnOldModel) {
   const SimulatorConfig plant = randomPlant(5, {"leakage"});
-  LiveMonitorSettings settings;
-  settings.ranking_window = 24.0;
-  settings.ranking_period = 24.0;
-  LivePlant live(plant, {}, settings);
+  LivePlant live(plant, {}, rankingEvery24Seconds());
   live.run(25.0);  // the first ranking starts at once (an empty window), the second at 24 s
   waitForRanking(&live);
   ASSERT_FALSE(live.rankings.empty());
@@ -152,10 +157,7 @@ TEST(LiveModelMonitor, RanksTheWindowOnItsOwnThreadAndDropsARankingOfAnOldModel)
 // against a resolution error set beyond its gain.
 TEST(LiveModelMonitor, RanksWithTheRecordingsOwnResolution) {
   const SimulatorConfig plant = randomPlant(5, {"leakage"});
-  LiveMonitorSettings settings;
-  settings.ranking_window = 24.0;
-  settings.ranking_period = 24.0;
-  LivePlant live(plant, {}, settings);
+  LivePlant live(plant, {}, rankingEvery24Seconds());
   live.monitor.setResolution(50e5, "record the cushion's velocity with its position");
   live.run(25.0);
   waitForRanking(&live);
