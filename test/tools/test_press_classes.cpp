@@ -551,7 +551,7 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
   if (csv_path) {
     csv.open(csv_path);
     csv << "recording,press,sensors,effect,variation,seed,parameter,truth,value,std,regression,cycles,"
-           "method\n";
+           "free_run,misfit,method\n";
     csv.precision(10);
   }
   std::vector<double> ratios;
@@ -589,6 +589,7 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
             << c.effect << ',' << c.variation << ',' << c.seed << ',' << name << ','
             << r.truth[name].as<double>() << ',' << p["value"].as<double>() << ',' << p["std"].as<double>()
             << ',' << parts["regression"].as<double>() << ',' << parts["cycles"].as<double>() << ','
+            << parts["free_run"].as<double>() << ',' << parts["misfit"].as<double>() << ','
             << parts["method"].as<double>() << '\n';
       }
     }
