@@ -5,11 +5,18 @@
 
 namespace die_cushion_ident {
 
+double ParameterUncertainty::equationError() const {
+  // The equation-error fit's sandwich and its cycle jackknife estimate the same variance: pooled where the
+  // jackknife ran.
+  return cycles > 0.0 ? std::sqrt(0.5 * (regression * regression + cycles * cycles)) : regression;
+}
+
 double ParameterUncertainty::combined() const {
-  // The sandwich and the jackknife estimate the same variance: pooled where the jackknife ran.
-  const double statistical =
-      cycles > 0.0 ? std::sqrt(0.5 * (regression * regression + cycles * cycles)) : regression;
-  return std::hypot(statistical, method);
+  // The free run's sandwich is another estimator's: compared with the equation error's pool, not pooled
+  // with its jackknife (pooled, a free run that scatters more than the equation error had its std diluted
+  // by the equation error's jackknife).
+  const double statistical = std::max(equationError(), free_run);
+  return std::sqrt(statistical * statistical + misfit * misfit + method * method);
 }
 
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
@@ -21,9 +28,19 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
   for (std::size_t k = 0; k < parts.size(); ++k) {
     const auto i = static_cast<Eigen::Index>(k);
     ParameterUncertainty& u = parts[k];
-    u.regression = reported->parameters[k].std;
+    u.regression =
+        k < equation_error.parameters.size() ? equation_error.parameters[k].std : reported->parameters[k].std;
+    if (refined_used && i < refined->std.size() && std::isfinite(refined->std(i)))
+      u.free_run = refined->std(i);
     if (jackknife && k < jackknife->parameters.size() && std::isfinite(jackknife->parameters[k].std)) {
       u.cycles = jackknife->parameters[k].std;
+    }
+    // The refinement not kept because the estimate's free run stays R times the pressure noise: the
+    // equation-error stds, read from residuals the derivative form leaves, assume the model describes the
+    // recording to the noise; scaled by R (Birge's ratio), u_stat^2 R^2 = u_stat^2 + misfit^2.
+    if (refined && !refined->improved && refined->noise > 0.0 && refined->start_rms > refined->noise) {
+      const double ratio = refined->start_rms / refined->noise;
+      if (std::isfinite(ratio)) u.misfit = u.equationError() * std::sqrt(ratio * ratio - 1.0);
     }
     if (refined_used && k < equation_error.parameters.size() && i < refined->theta.size()) {
       const double difference = refined->theta(i) - equation_error.parameters[k].value;

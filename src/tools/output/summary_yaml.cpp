@@ -45,7 +45,8 @@ void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& 
       const ParameterUncertainty& u = uncertainty[i];
       out << YAML::Key << "std_parts" << YAML::Value << YAML::BeginMap << YAML::Key << "regression"
           << YAML::Value << u.regression << YAML::Key << "cycles" << YAML::Value << u.cycles << YAML::Key
-          << "method" << YAML::Value << u.method << YAML::EndMap;
+          << "free_run" << YAML::Value << u.free_run << YAML::Key << "misfit" << YAML::Value << u.misfit
+          << YAML::Key << "method" << YAML::Value << u.method << YAML::EndMap;
     }
     out << YAML::EndMap;
   }

@@ -1,0 +1,120 @@
+// combineUncertainty: how the parts of a reported std combine (doc/equations.md, "What analyze_bag reports").
+// Analytic cases; the calibration over simulated recordings is test_press_classes'
+// StandardDeviationsAreCalibratedOverClassesSensorsAndEffects (scripts/uncertainty_calibration).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "die_cushion_ident/core/fits/parameter_uncertainty.h"
+
+namespace die_cushion_ident {
+namespace {
+
+HydraulicEstimate estimate(double value, double std) {
+  HydraulicEstimate e;
+  e.parameters.push_back({"bulk_modulus", "Pa", value, std});
+  return e;
+}
+
+OutputErrorFit freeRun(double value, double std, bool improved = true) {
+  OutputErrorFit fit;
+  fit.improved = improved;
+  fit.theta = ParameterVector::Constant(1, value);
+  fit.std = ParameterVector::Constant(1, std);
+  return fit;
+}
+
+// Without a jackknife or a refinement the fit's own std is all there is.
+TEST(ParameterUncertainty, TheFitsOwnStdAloneWithoutJackknifeOrRefinement) {
+  const HydraulicEstimate equation_error = estimate(1e9, 4e6);
+  HydraulicEstimate reported = equation_error;
+  const auto parts = combineUncertainty(equation_error, std::nullopt, nullptr, &reported);
+  ASSERT_EQ(parts.size(), 1u);
+  EXPECT_DOUBLE_EQ(parts[0].regression, 4e6);
+  EXPECT_DOUBLE_EQ(parts[0].cycles, 0.0);
+  EXPECT_DOUBLE_EQ(parts[0].free_run, 0.0);
+  EXPECT_DOUBLE_EQ(parts[0].method, 0.0);
+  EXPECT_DOUBLE_EQ(reported.parameters[0].std, 4e6);
+}
+
+// The sandwich and the cycle jackknife estimate the same variance: pooled, u^2 = (3^2 + 4^2) / 2.
+TEST(ParameterUncertainty, SandwichAndCycleJackknifePooled) {
+  const HydraulicEstimate equation_error = estimate(1e9, 3e6);
+  const HydraulicEstimate jackknife = estimate(1e9, 4e6);
+  HydraulicEstimate reported = equation_error;
+  combineUncertainty(equation_error, std::nullopt, &jackknife, &reported);
+  EXPECT_NEAR(reported.parameters[0].std, std::sqrt(12.5) * 1e6, 1.0);
+}
+
+// A non-finite jackknife std (a replicate that failed) is no part: the sandwich alone.
+TEST(ParameterUncertainty, NonFiniteJackknifeIgnored) {
+  const HydraulicEstimate equation_error = estimate(1e9, 3e6);
+  const HydraulicEstimate jackknife = estimate(1e9, std::numeric_limits<double>::quiet_NaN());
+  HydraulicEstimate reported = equation_error;
+  const auto parts = combineUncertainty(equation_error, std::nullopt, &jackknife, &reported);
+  EXPECT_DOUBLE_EQ(parts[0].cycles, 0.0);
+  EXPECT_DOUBLE_EQ(reported.parameters[0].std, 3e6);
+}
+
+// The free run's sandwich is the reported estimator's own: where it exceeds the equation error's pooled std
+// it is taken whole, not pooled with the equation error's jackknife (that diluted it); the method's part
+// |theta_free_run - theta_equation| / sqrt(3) adds in quadrature.
+TEST(ParameterUncertainty, LargerFreeRunStdTakenWholeAndMethodAdded) {
+  const HydraulicEstimate equation_error = estimate(1e9, 3e6);
+  const HydraulicEstimate jackknife = estimate(1e9, 3e6);
+  const std::optional<OutputErrorFit> refined = freeRun(1e9 + std::sqrt(3.0) * 4e6, 6e6);
+  HydraulicEstimate reported = estimate(refined->theta(0), 6e6);  // max of the two sandwiches
+  const auto parts = combineUncertainty(equation_error, refined, &jackknife, &reported);
+  EXPECT_DOUBLE_EQ(parts[0].regression, 3e6) << "the equation-error fit's sandwich, whatever reported held";
+  EXPECT_DOUBLE_EQ(parts[0].free_run, 6e6);
+  EXPECT_NEAR(parts[0].method, 4e6, 1.0);
+  EXPECT_NEAR(reported.parameters[0].std, std::hypot(6e6, 4e6), 1.0);
+}
+
+// A free run more precise than the equation error leaves the pooled std (the free run's sandwich misses the
+// inputs' errors that the fit absorbs, doc/equations.md).
+TEST(ParameterUncertainty, SmallerFreeRunStdLeavesThePool) {
+  const HydraulicEstimate equation_error = estimate(1e9, 3e6);
+  const HydraulicEstimate jackknife = estimate(1e9, 4e6);
+  const std::optional<OutputErrorFit> refined = freeRun(1e9, 1e6);
+  HydraulicEstimate reported = estimate(1e9, 3e6);
+  combineUncertainty(equation_error, refined, &jackknife, &reported);
+  EXPECT_NEAR(reported.parameters[0].std, std::sqrt(12.5) * 1e6, 1.0);
+}
+
+// A refinement not kept because the estimate's free run stays 5 times the pressure noise: the equation
+// error's std scaled by that ratio (misfit = u sqrt(5^2 - 1)); neither the free run's std nor a method's
+// part.
+TEST(ParameterUncertainty, RefinementNotKeptForAModelErrorScalesTheStd) {
+  const HydraulicEstimate equation_error = estimate(1e9, 3e6);
+  std::optional<OutputErrorFit> refined = freeRun(1e9, 9e6, false);
+  refined->theta(0) = 1.1e9;  // what the search reached: not kept, so not compared
+  refined->start_rms = 5e5;
+  refined->noise = 1e5;
+  HydraulicEstimate reported = equation_error;
+  const auto parts = combineUncertainty(equation_error, refined, nullptr, &reported);
+  EXPECT_DOUBLE_EQ(parts[0].free_run, 0.0);
+  EXPECT_DOUBLE_EQ(parts[0].method, 0.0);
+  EXPECT_NEAR(parts[0].misfit, 3e6 * std::sqrt(24.0), 1.0);
+  EXPECT_NEAR(reported.parameters[0].std, 5.0 * 3e6, 1.0);
+}
+
+// A refinement that was not kept because its free run did not fall (already at the noise) contributes
+// nothing.
+TEST(ParameterUncertainty, RefinementNotKeptAtTheNoiseIsNoPart) {
+  const HydraulicEstimate equation_error = estimate(1e9, 3e6);
+  std::optional<OutputErrorFit> refined = freeRun(1.1e9, 9e6, false);
+  refined->start_rms = 0.98e5;
+  refined->noise = 1e5;
+  HydraulicEstimate reported = equation_error;
+  const auto parts = combineUncertainty(equation_error, refined, nullptr, &reported);
+  EXPECT_DOUBLE_EQ(parts[0].misfit, 0.0);
+  EXPECT_DOUBLE_EQ(parts[0].free_run, 0.0);
+  EXPECT_DOUBLE_EQ(parts[0].method, 0.0);
+  EXPECT_DOUBLE_EQ(reported.parameters[0].std, 3e6);
+}
+
+}  // namespace
+}  // namespace die_cushion_ident
