@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -111,17 +112,21 @@ void studyDerivedVelocity(const Messages& messages, const IdentificationConfig& 
     runFree(model, theta, at_chosen.min_pressure, &level);
     return level;
   };
-  const Level analysed = window == at_chosen.velocity_window ? native : freeRunWithWindow(window);
+  // The study's own level where its window is the analysis's (a 2 ms period with the default 4 ms), not a
+  // copy.
+  std::optional<Level> own_level;
+  const Level& analysed =
+      window == at_chosen.velocity_window ? native : own_level.emplace(freeRunWithWindow(window));
   const double change =
       changeBetween(freeRunWithWindow(2.0 * window), analysed, at_chosen.resampler.sample_period);
   if (!std::isfinite(change)) return;
+  const double first_order = change;  // Richardson: change / (2^1 - 1)
   // No more than the free run leaves beyond the noise, of which it is a part: where the derivative's error is
   // small (slow and large presses) the doubled window's change is mostly the derived velocity's own noise,
   // and a large soft press whose free run ran at 1.03 times the noise was told 0.36 of it.
   const double beyond_noise =
       std::sqrt(std::max(analysed.error_rms * analysed.error_rms - noise * noise, 0.0));
-  choice.velocity_error =
-      std::min(change, std::isfinite(beyond_noise) ? beyond_noise : change);  // change / (2^1 - 1)
+  choice.velocity_error = std::isfinite(beyond_noise) ? std::min(first_order, beyond_noise) : first_order;
   if (!(choice.velocity_error > allowed_change)) return;
   const std::string finding = formatted(
       FMT_STRING(

@@ -254,16 +254,17 @@ StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double fi
   choice_.numerical_error = numericalError(model_, theta_, choice_.config.min_pressure, &level(chosen));
   outcome.grid_error = choice_.resolution_error;
   const IdentificationConfig at_chosen = atPeriod(choice_.config, outcome.chosen_period, shortest_drawing_);
-  // Richardson's extrapolation of the position's rate needs a free run that converges; the valve's rate is a
-  // difference of two free runs, measured, not extrapolated (a fast press with its valve at 250 Hz, whose
-  // free run ran 46 times the noise, did not converge as the period halved and was told "structured").
-  if (!choice_.resolution_not_converging)
+  // Richardson's extrapolations of the position's rate and of the derived velocity need a free run that
+  // converges; the valve's rate is a difference of two free runs, measured, not extrapolated (a fast press
+  // with its valve at 250 Hz, whose free run ran 46 times the noise, did not converge as the period halved
+  // and was told "structured").
+  if (!choice_.resolution_not_converging) {
     studyPositionRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, choice_);
-  if (!choice_.resolution_not_converging)
     studyDerivedVelocity(messages_, at_chosen,
                          analysisVelocityWindow(choice_.config.velocity_window, velocity_window_configured_,
                                                 outcome.chosen_period),
                          model_, theta_, level(chosen), allowed_change, noise, choice_);
+  }
   studyValveRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, jobs_, choice_);
   return outcome;
 }
