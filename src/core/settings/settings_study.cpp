@@ -182,18 +182,14 @@ std::string recommendSettings(const std::vector<SettingsStudyPoint>& points,
   }
   return formatted(
       FMT_STRING(
-          "Integral form (the default): at the configured widths (b {}, d {}) the largest bias is {:+.2f} +- "
-          "{:.2f} % "
-          "({}; +- the seeds' standard error); over the widths the largest bias of a parameter lies between "
-          "{:+.2f} +- {:.2f} % ({} at b {}, d {}) and {:+.2f} +- {:.2f} % ({} at b {}, d {}). "
-          "Least bias + 2 std: b {}, d {} ({:.2f} %, worst "
-          "parameter) - set moving_average_width {} and derivative_width {}. The paper's filtered-derivative "
-          "form "
-          "is biased by up to {:+.1f} % ({} at b {}, d {}), least at b {}, d {} ({:.2f} %). Sampling time at "
-          "the "
-          "configured widths: {:.4g} s gives the least bias + 2 std ({:.2f} %); keep it at most a tenth of "
-          "the "
-          "pressure's t63 (step test)."),
+          "Integral form (the default): at the configured widths (b {}, d {}) the largest bias is "
+          "{:+.2f} +- {:.2f} % ({}; +- the seeds' standard error); over the widths the largest bias "
+          "of a parameter lies between {:+.2f} +- {:.2f} % ({} at b {}, d {}) and {:+.2f} +- {:.2f} % "
+          "({} at b {}, d {}). Least bias + 2 std: b {}, d {} ({:.2f} %, worst parameter) - set "
+          "moving_average_width {} and derivative_width {}. The paper's filtered-derivative form is "
+          "biased by up to {:+.1f} % ({} at b {}, d {}), least at b {}, d {} ({:.2f} %). Sampling time "
+          "at the configured widths: {:.4g} s gives the least bias + 2 std ({:.2f} %); keep it at most "
+          "a tenth of the pressure's t63 (step test)."),
       base.moving_average_width, base.derivative_width,
       configured != integral.end() ? 100 * configured->second.bias : 0.0,
       configured != integral.end() ? 100 * configured->second.bias_standard_error : 0.0,
