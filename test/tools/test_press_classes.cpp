@@ -9,19 +9,21 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <boost/math/distributions/beta.hpp>
-
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <algorithm>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "bag_analysis.h"
+#include "command_line.h"
+#include "output/csv_file.h"
 #include "tool_runner.h"
 
 namespace {
@@ -553,18 +555,6 @@ double coverage(const std::vector<double>& v) {
          v.size();
 }
 
-// The items of a comma-separated list.
-std::vector<std::string> listed(const std::string& text) {
-  std::vector<std::string> items;
-  std::size_t begin = 0;
-  while (begin <= text.size()) {
-    const std::size_t end = std::min(text.find(',', begin), text.size());
-    if (end > begin) items.push_back(text.substr(begin, end - begin));
-    begin = end + 1;
-  }
-  return items;
-}
-
 TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects) {
   const char* requested = std::getenv("DCI_PRESS_CALIBRATION");
   const int recordings = requested ? std::max(20, std::atoi(requested)) : 20;
@@ -573,7 +563,7 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
   const char* effects_requested = std::getenv("DCI_PRESS_CALIBRATION_EFFECTS");
   const std::vector<std::string> effects =
       effects_requested
-          ? listed(effects_requested)
+          ? die_cushion_ident::splitList(effects_requested)
           : std::vector<std::string>{"none", "leakage", "entrained_air", "valve_overlap", "tank_pressure"};
   ASSERT_FALSE(effects.empty());
   const char* sensors_requested = std::getenv("DCI_PRESS_CALIBRATION_SENSORS");
@@ -588,12 +578,11 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
   // DCI_PRESS_CALIBRATION_CSV=FILE: every estimate with its truth, its std and the std's parts, a line each
   // (to try another combination of the parts offline).
   const char* csv_path = std::getenv("DCI_PRESS_CALIBRATION_CSV");
-  std::ofstream csv;
+  std::optional<die_cushion_ident::CsvFile> csv;
   if (csv_path) {
-    csv.open(csv_path);
-    csv << "recording,press,sensors,effect,variation,seed,parameter,truth,value,std,regression,cycles,"
-           "free_run,misfit,method\n";
-    csv.precision(10);
+    csv.emplace(csv_path);
+    csv->header({"recording", "press", "sensors", "effect", "variation", "seed", "parameter", "truth",
+                 "value", "std", "regression", "cycles", "free_run", "misfit", "method"});
   }
   std::vector<double> ratios;
   std::map<std::string, std::vector<double>> by_group, by_class;
@@ -624,17 +613,18 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
       by_group[sensors].push_back(ratio);
       by_group[name].push_back(ratio);
       by_group[c.press + ", " + sensors].push_back(ratio);
-      if (csv.is_open()) {
+      if (csv) {
         const YAML::Node parts = p["std_parts"];
-        csv << k << ',' << c.press << ",\"" << sensors << "\","  // options hold commas
-            << c.effect << ',' << c.variation << ',' << c.seed << ',' << name << ','
-            << r.truth[name].as<double>() << ',' << p["value"].as<double>() << ',' << p["std"].as<double>()
-            << ',' << parts["regression"].as<double>() << ',' << parts["cycles"].as<double>() << ','
-            << parts["free_run"].as<double>() << ',' << parts["misfit"].as<double>() << ','
-            << parts["method"].as<double>() << '\n';
+        csv->integer(k).text(c.press).quoted(sensors).text(c.effect).integer(c.variation).integer(c.seed);
+        csv->text(name).number(r.truth[name].as<double>()).number(p["value"].as<double>());
+        csv->number(p["std"].as<double>());
+        for (const char* part : {"regression", "cycles", "free_run", "misfit", "method"})
+          csv->number(parts[part].as<double>());
+        csv->endLine();
       }
     }
   }
+  if (csv) csv->close();
   for (const auto& [group, v] : by_group) {
     std::printf("  %-48s %4zu estimates: median |error|/std %.2f, within 1.96 std %.1f %%\n", group.c_str(),
                 v.size(), medianOf(v), 100.0 * coverage(v));
