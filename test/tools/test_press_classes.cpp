@@ -15,6 +15,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <initializer_list>
+#include <limits>
 #include <map>
 #include <optional>
 #include <random>
@@ -581,8 +583,21 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
   std::optional<die_cushion_ident::CsvFile> csv;
   if (csv_path) {
     csv.emplace(csv_path);
-    csv->header({"recording", "press", "sensors", "effect", "variation", "seed", "parameter", "truth",
-                 "value", "std", "regression", "cycles", "free_run", "misfit", "method"});
+    // The estimate, its truth and its std's parts; then what the recording says of its own reconstruction
+    // (the free run's error before and after the refinement, the settings' resolution errors, the valve fit).
+    for (const char* column :
+         {"recording", "press", "sensors", "effect", "variation", "seed", "parameter", "truth", "value",
+          "std", "regression", "cycles", "free_run", "misfit", "method"})
+      csv->text(column);
+    for (const char* column : {"refined_used",       "free_run_error_before", "free_run_error_after",
+                               "free_run_samples",   "survey_pressure_noise", "noise_rms",
+                               "resolution_error",   "velocity_error",        "position_rate_error",
+                               "valve_rate_error",   "numerical_error",       "free_run_spool",
+                               "velocity",           "valve_fit_used",        "valve_fit_residual_rms",
+                               "valve_fit_noise",    "position_delay_shift",  "position_delay_std",
+                               "equation_error_rms", "simulation_error_rms",  "cycles_fitted"})
+      csv->text(column);
+    csv->endLine();
   }
   std::vector<double> ratios;
   std::map<std::string, std::vector<double>> by_group, by_class;
@@ -620,6 +635,51 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
         csv->number(p["std"].as<double>());
         for (const char* part : {"regression", "cycles", "free_run", "misfit", "method"})
           csv->number(parts[part].as<double>());
+        // What the recording says of its own reconstruction, empty where the summary has no such value: to
+        // scale a part for a reconstructed input's bias offline. `at`: the node at a path of keys, or a null
+        // one where any of them is missing (reset rebinds the handle; assigning would write into the
+        // summary).
+        const auto at = [](const YAML::Node& root, std::initializer_list<const char*> keys) {
+          YAML::Node n;
+          n.reset(root);
+          for (const char* key : keys) {
+            if (!n.IsMap()) return YAML::Node();
+            const YAML::Node& map = n;
+            const YAML::Node child = map[key];
+            if (!child) return YAML::Node();
+            n.reset(child);
+          }
+          return n;
+        };
+        const auto number = [&](std::initializer_list<const char*> keys) {
+          const YAML::Node n = at(a.summary, keys);
+          return n && n.IsScalar() ? n.as<double>() : std::numeric_limits<double>::quiet_NaN();
+        };
+        const auto word = [&](std::initializer_list<const char*> keys) {
+          const YAML::Node n = at(a.summary, keys);
+          return n && n.IsScalar() ? n.as<std::string>() : std::string("-");
+        };
+        const auto flag = [&](std::initializer_list<const char*> keys) {
+          const YAML::Node n = at(a.summary, keys);
+          return n && n.IsScalar() && n.as<bool>() ? 1 : 0;
+        };
+        csv->integer(flag({"model", "refined_by_free_run", "used"}));
+        csv->number(number({"model", "refined_by_free_run", "free_run_error_before"}));
+        csv->number(number({"model", "refined_by_free_run", "free_run_error_after"}));
+        csv->number(number({"model", "refined_by_free_run", "samples"}));
+        csv->number(number({"settings", "survey", "pressure_noise"}))
+            .number(number({"adequacy", "noise_rms"}));
+        for (const char* key : {"resolution_error", "velocity_error", "position_rate_error",
+                                "valve_rate_error", "numerical_error"})
+          csv->number(number({"settings", key}));
+        csv->text(word({"settings", "free_run_spool"})).quoted(word({"input", "velocity"}));
+        csv->integer(flag({"settings", "valve_from_operation", "used"}));
+        csv->number(number({"settings", "valve_from_operation", "residual_rms"}));
+        csv->number(number({"settings", "valve_from_operation", "noise"}));
+        csv->number(number({"settings", "position_delay_refined_by_free_run", "shift"}));
+        csv->number(number({"settings", "position_delay_refined_by_free_run", "std"}));
+        csv->number(number({"fit", "equation_error_rms"})).number(number({"fit", "simulation_error_rms"}));
+        csv->number(number({"fit", "cycles"}));
         csv->endLine();
       }
     }
