@@ -50,8 +50,11 @@ class LiveIdentification(unittest.TestCase):
         # The node chooses its settings from its first 8 s (the paper's press: the paper's grid, nothing
         # restarted); the nodelet, with the default 24 s, is still surveying then. Checked when the node has
         # chosen, not after a fixed sleep: on a loaded machine the test's wait ran past the nodelet's 24 s.
+        # The nodelet's own settings status too: under load this test can start after the node has chosen, and
+        # before the nodelet's first diagnostics have reached it.
         wait_for(lambda: "chosen from the recording" in
-                 getattr(self.diagnostic(self.targets[1], "settings"), "message", ""), 30, "the node's settings")
+                 getattr(self.diagnostic(self.targets[1], "settings"), "message", "") and
+                 self.diagnostic(self.targets[0], "settings") is not None, 30, "the node's and the nodelet's settings")
         self.assertIn("surveying", self.diagnostic(self.targets[0], "settings").message)
         rospy.sleep(16.0)  # six press cycles
         for target in self.targets:
@@ -93,6 +96,7 @@ class LiveIdentification(unittest.TestCase):
 
         for target in self.targets:
             # Every status the identification publishes is one the yaml groups (a new one fails here first).
+            wait_for(lambda: set(self.ANALYZERS) <= self.diagnostics.names(target.ns), 10, target.ns + " statuses")
             self.assertEqual(self.diagnostics.names(target.ns), set(self.ANALYZERS), target.ns)
             # The aggregator writes a status "<path>/<status name, slashes as spaces>".
             shown = target.ns.strip("/").replace("/", " ")
