@@ -517,15 +517,9 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
     r.output_error = refineByOutputError(grid_.grid(), model, r.model.values(), r.model.standardDeviations(),
                                          config_.min_pressure, refine);
     if (r.output_error->improved) {
-      for (std::size_t i = 0; i < r.model.parameters.size(); ++i) {
+      // The stds follow from both fits' parts in combineUncertainty below.
+      for (std::size_t i = 0; i < r.model.parameters.size(); ++i)
         r.model.parameters[i].value = r.output_error->theta(static_cast<Eigen::Index>(i));
-        // The larger of the two fits' own stds: the free run's sandwich sees only the residuals' scatter,
-        // not the bias the noisy inputs (position, spool) drive into it (on fast presses a third of the
-        // errors); the cycle jackknife and the method's part below add what both miss (doc/equations.md,
-        // "Uncertainty").
-        r.model.parameters[i].std =
-            std::max(r.model.parameters[i].std, r.output_error->std(static_cast<Eigen::Index>(i)));
-      }
     }
   }
   tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
