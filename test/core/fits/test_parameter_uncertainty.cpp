@@ -26,6 +26,15 @@ OutputErrorFit freeRun(double value, double std, bool improved = true) {
   return fit;
 }
 
+// A refinement not kept: its search reached `value`, the estimate's free run had run `start_rms` against
+// the pressure noise `noise`.
+OutputErrorFit refinementNotKept(double value, double start_rms, double noise) {
+  OutputErrorFit fit = freeRun(value, 9e6, false);
+  fit.start_rms = start_rms;
+  fit.noise = noise;
+  return fit;
+}
+
 // Without a jackknife or a refinement the fit's own std is all there is.
 TEST(ParameterUncertainty, TheFitsOwnStdAloneWithoutJackknifeOrRefinement) {
   const HydraulicEstimate equation_error = estimate(1e9, 4e6);
@@ -89,10 +98,7 @@ TEST(ParameterUncertainty, SmallerFreeRunStdLeavesThePool) {
 // part.
 TEST(ParameterUncertainty, RefinementNotKeptForAModelErrorScalesTheStd) {
   const HydraulicEstimate equation_error = estimate(1e9, 3e6);
-  std::optional<OutputErrorFit> refined = freeRun(1e9, 9e6, false);
-  refined->theta(0) = 1.1e9;  // what the search reached: not kept, so not compared
-  refined->start_rms = 5e5;
-  refined->noise = 1e5;
+  const std::optional<OutputErrorFit> refined = refinementNotKept(1.1e9, 5e5, 1e5);  // not kept: not compared
   HydraulicEstimate reported = equation_error;
   const auto parts = combineUncertainty(equation_error, refined, nullptr, &reported);
   EXPECT_DOUBLE_EQ(parts[0].free_run, 0.0);
@@ -105,9 +111,7 @@ TEST(ParameterUncertainty, RefinementNotKeptForAModelErrorScalesTheStd) {
 // nothing.
 TEST(ParameterUncertainty, RefinementNotKeptAtTheNoiseIsNoPart) {
   const HydraulicEstimate equation_error = estimate(1e9, 3e6);
-  std::optional<OutputErrorFit> refined = freeRun(1.1e9, 9e6, false);
-  refined->start_rms = 0.98e5;
-  refined->noise = 1e5;
+  const std::optional<OutputErrorFit> refined = refinementNotKept(1.1e9, 0.98e5, 1e5);
   HydraulicEstimate reported = equation_error;
   const auto parts = combineUncertainty(equation_error, refined, nullptr, &reported);
   EXPECT_DOUBLE_EQ(parts[0].misfit, 0.0);
