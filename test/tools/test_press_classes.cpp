@@ -587,7 +587,7 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
     // (the free run's error before and after the refinement, the settings' resolution errors, the valve fit).
     for (const char* column :
          {"recording", "press", "sensors", "effect", "variation", "seed", "parameter", "truth", "value",
-          "std", "regression", "cycles", "free_run", "misfit", "method"})
+          "std", "regression", "cycles", "free_run", "misfit", "method", "valve_model", "velocity"})
       csv->text(column);
     for (const char* column : {"refined_used",       "free_run_error_before", "free_run_error_after",
                                "free_run_samples",   "survey_pressure_noise", "noise_rms",
@@ -633,7 +633,8 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
         csv->integer(k).text(c.press).quoted(sensors).text(c.effect).integer(c.variation).integer(c.seed);
         csv->text(name).number(r.truth[name].as<double>()).number(p["value"].as<double>());
         csv->number(p["std"].as<double>());
-        for (const char* part : {"regression", "cycles", "free_run", "misfit", "method"})
+        for (const char* part :
+             {"regression", "cycles", "free_run", "misfit", "method", "valve_model", "velocity"})
           csv->number(parts[part].as<double>());
         // What the recording says of its own reconstruction, empty where the summary has no such value: to
         // scale a part for a reconstructed input's bias offline. `at`: the node at a path of keys, or a null

@@ -389,6 +389,7 @@ OfflineResult OfflineAnalysis::identify(const std::function<void(const std::stri
   r.topic_delays = config_.appliedTopicDelays();
   r.topic_delays_source = config_.topicDelaysSet() ? "configured" : "none";
   r.derived_velocity_samples = pipeline_.derivedVelocitySamples();
+  r.predicted_spool_messages = pipeline_.predictedSpoolMessages();
   r.messages = messages_;
   r.grid_samples = grid_.samplesSeen();
   r.thinning = {grid_.stride(), grid_.cyclesSeen(), grid_.cyclesKept(), grid_.grid().size()};
@@ -514,6 +515,8 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
     OutputErrorOptions refine;
     refine.jobs = jobs_;
     refine.pressure_noise = config_.grid_pressure_noise;
+    refine.inputs =
+        freeRunInputUncertainties(grid_.grid(), refine.max_samples, config_, r.derived_velocity_samples > 0);
     r.output_error = refineByOutputError(grid_.grid(), model, r.model.values(), r.model.standardDeviations(),
                                          config_.min_pressure, refine);
     if (r.output_error->improved) {
@@ -525,7 +528,10 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
   tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
   HydraulicEstimate jackknife = equation_error;
   const bool resampled = applyCycleJackknife(grid_.grid(), r.strokes, config_, &jackknife, 10, jobs_);
-  r.uncertainty = combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model);
+  r.uncertainty =
+      combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model,
+                         freeRunInputsKnown(grid_.grid(), OutputErrorOptions().max_samples, config_, model,
+                                            r.derived_velocity_samples > 0, r.predicted_spool_messages > 0));
   tell("running the model free against the measurement");
   r.assessment = assessModel(grid_.grid(), r.strokes, model, r.model.values(), config_.min_pressure);
   if (r.assessment.samples == 0) {

@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <deque>
 #include <memory>
@@ -245,6 +246,33 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   return solved;
 }
 
+// Each reconstructed input's part of the stds: the free run at theta with the input moved one std either way,
+// its residuals' half difference dr projected as the refit would, (J'J)^-1 J' dr (`projection`); the parts
+// of one input in quadrature. On both cores: two free runs a perturbation.
+void setInputStds(const std::vector<GridSample>& fitted, std::size_t n, const HydraulicModel& model,
+                  const Eigen::MatrixXd& projection, double min_pressure, const OutputErrorOptions& refine,
+                  OutputErrorFit& fit) {
+  const std::vector<InputPerturbation>& inputs = refine.inputs;
+  std::vector<Eigen::VectorXd> shifts(inputs.size());
+  parallelFor(inputs.size(), refine.jobs, [&](std::size_t j) {
+    const HydraulicModel own_model(model);  // one per thread (FreeRunError says why)
+    std::vector<double> plus(n), minus(n);
+    freeRunResiduals(perturbed(fitted, n, inputs[j], 1.0), n, own_model, fit.theta, min_pressure,
+                     refine.tolerance, plus.data());
+    freeRunResiduals(perturbed(fitted, n, inputs[j], -1.0), n, own_model, fit.theta, min_pressure,
+                     refine.tolerance, minus.data());
+    Eigen::VectorXd change(static_cast<Eigen::Index>(n));
+    for (std::size_t s = 0; s < n; ++s) change(static_cast<Eigen::Index>(s)) = 0.5 * (plus[s] - minus[s]);
+    shifts[j] = projection * change;
+  });
+  for (std::size_t j = 0; j < inputs.size(); ++j) {
+    if (!shifts[j].allFinite()) continue;
+    ParameterVector& part =
+        fit.input_std.try_emplace(inputs[j].input, ParameterVector::Zero(fit.theta.size())).first->second;
+    for (Eigen::Index i = 0; i < part.size(); ++i) part(i) = std::hypot(part(i), shifts[j](i));
+  }
+}
+
 // The stds: the sandwich (J'J)^-1 S (J'J)^-1 with S from the scores g_t = J_t r_t summed over blocks of
 // the recording treated as independent (cluster-robust): a free run's residuals stay correlated over a
 // whole press cycle (a shut valve carries an error through the hold), and Bartlett weights over 300 ms
@@ -283,10 +311,17 @@ void setClusterRobustStds(const std::vector<GridSample>& fitted, std::size_t n, 
   const Eigen::LDLT<Eigen::MatrixXd> solver(information);
   const Eigen::MatrixXd bread = solver.solve(Eigen::MatrixXd::Identity(k, k));
   const Eigen::MatrixXd covariance = bread * meat * bread;
+  // With G blocks the sandwich has G - 1 degrees of freedom (Cameron & Miller 2015): the std scaled by
+  // t_0.975(G - 1) / z_0.975 (1.21 for 8 blocks), so that 1.96 of it is the t interval.
+  const double small_sample =
+      blocks > 1 ? boost::math::quantile(boost::math::students_t(blocks - 1), 0.975) / 1.959963984540054
+                 : 1.0;
   for (Eigen::Index i = 0; i < k; ++i) {
     const double variance = covariance(i, i);
-    fit.std(i) = variance > 0.0 && std::isfinite(variance) ? std::sqrt(variance) : start_std(i);
+    fit.std(i) =
+        variance > 0.0 && std::isfinite(variance) ? small_sample * std::sqrt(variance) : start_std(i);
   }
+  setInputStds(fitted, n, model, bread * jacobian.transpose(), min_pressure, refine, fit);
 }
 
 // Why the refined parameters are not kept (their free-run error `rms`); "" where they are. Kept only where

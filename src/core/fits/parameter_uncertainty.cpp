@@ -12,17 +12,21 @@ double ParameterUncertainty::equationError() const {
 }
 
 double ParameterUncertainty::combined() const {
-  // The free run's sandwich is another estimator's: compared with the equation error's pool, not pooled
-  // with its jackknife (pooled, a free run that scatters more than the equation error had its std diluted
-  // by the equation error's jackknife).
-  const double statistical = std::max(equationError(), free_run);
-  return std::sqrt(statistical * statistical + misfit * misfit + method * method);
+  // The free run's sandwich is the reported estimator's own. Where an input it is driven by has an error no
+  // part carries (a configured valve model, a derived velocity: both estimators biased alike, 3-45 of its
+  // stds on fast presses), the equation error's pool bounds it as well; it is not pooled with the free run's
+  // (pooled, a free run that scatters more than the equation error had its std diluted by the jackknife).
+  const double statistical =
+      free_run_inputs_known && free_run > 0.0 ? free_run : std::max(equationError(), free_run);
+  return std::sqrt(statistical * statistical + misfit * misfit + method * method + valve_model * valve_model +
+                   velocity * velocity);
 }
 
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
                                                      const std::optional<OutputErrorFit>& refined,
                                                      const HydraulicEstimate* jackknife,
-                                                     HydraulicEstimate* reported) {
+                                                     HydraulicEstimate* reported,
+                                                     bool free_run_inputs_known) {
   std::vector<ParameterUncertainty> parts(reported->parameters.size());
   const bool refined_used = refined && refined->improved;
   for (std::size_t k = 0; k < parts.size(); ++k) {
@@ -32,6 +36,18 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
         k < equation_error.parameters.size() ? equation_error.parameters[k].std : reported->parameters[k].std;
     if (refined_used && i < refined->std.size() && std::isfinite(refined->std(i)))
       u.free_run = refined->std(i);
+    if (refined_used) {
+      const auto part = [&](const char* input) {
+        const auto found = refined->input_std.find(input);
+        return found != refined->input_std.end() && i < found->second.size() &&
+                       std::isfinite(found->second(i))
+                   ? found->second(i)
+                   : 0.0;
+      };
+      u.valve_model = part("valve_model");
+      u.velocity = part("velocity");
+      u.free_run_inputs_known = free_run_inputs_known;
+    }
     if (jackknife && k < jackknife->parameters.size() && std::isfinite(jackknife->parameters[k].std)) {
       u.cycles = jackknife->parameters[k].std;
     }

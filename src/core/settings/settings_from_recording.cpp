@@ -140,6 +140,7 @@ void adoptValveFit(ValveOperationFit fit, bool valve_configured, SettingsChoice&
   choice.valve = std::move(fit);
   if (!choice.valve->success || !(choice.valve->residual_rms < choice.valve->start_residual_rms)) return;
   choice.config.valve = choice.valve->parameters;
+  choice.config.valve_covariance = choice.valve->covariance;
   choice.config.valve_model_drives_free_run = true;
   choice.valve_from_operation = true;
   if (valve_configured && choice.valve->start_residual_rms > 1.5 * choice.valve->noise_sigma) {

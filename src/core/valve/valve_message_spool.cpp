@@ -39,6 +39,7 @@ void ValveMessageSpool::process(StreamSample* valve) {
     last_measured_ = valve->second;
   } else {
     valve->second = modelled;
+    ++predicted_;
   }
   if (drives_free_run_) valve->third = modelled;
   if (dt > 0.0 || dt < -max_gap_) {

@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -211,6 +212,39 @@ void bestStart(const std::vector<ValveSample>& search, const ServoValveParameter
   }
 }
 
+// s^2 (J'J)^-1 of the fitted parameters in physical units (natural_frequency, damping, gain, dead_time), J
+// by central differences in the fit's own units (forward where the dead time is at its bound of 0), s^2 the
+// residual's mean square over the measured samples less the four parameters. Zero where J'J is singular.
+Eigen::Matrix4d parameterCovariance(const std::vector<ValveSample>& samples, const double fitted[kParameters],
+                                    double max_gap, const std::vector<double>& residual,
+                                    std::size_t measured) {
+  Eigen::MatrixXd jacobian(samples.size(), kParameters);
+  std::vector<double> plus(samples.size()), minus(samples.size());
+  for (int i = 0; i < kParameters; ++i) {
+    double v[kParameters];
+    std::copy(fitted, fitted + kParameters, v);
+    const double h = 1e-3 * std::max(std::abs(fitted[i]), i == 2 ? 1e-6 : 0.1);
+    const bool forward = i == 3 && fitted[i] < h;
+    v[i] = fitted[i] + h;
+    residuals(samples, fromVector(v), max_gap, plus.data());
+    v[i] = forward ? fitted[i] : fitted[i] - h;
+    residuals(samples, fromVector(v), max_gap, minus.data());
+    // r = s - y: dy/dv = -(dr/dv)
+    for (std::size_t k = 0; k < samples.size(); ++k)
+      jacobian(k, i) = -(plus[k] - minus[k]) / (forward ? h : 2.0 * h);
+  }
+  double sum = 0.0;
+  for (double e : residual) sum += e * e;
+  if (measured <= kParameters || !jacobian.allFinite()) return Eigen::Matrix4d::Zero();
+  const double variance = sum / static_cast<double>(measured - kParameters);
+  const Eigen::Matrix4d information = jacobian.transpose() * jacobian;
+  const Eigen::FullPivLU<Eigen::Matrix4d> lu(information);
+  if (!lu.isInvertible()) return Eigen::Matrix4d::Zero();
+  // d natural_frequency = f d log f, d damping = D d log D, d dead_time = 1e-3 d (dead time in ms).
+  const Eigen::Vector4d physical(std::exp(fitted[0]), std::exp(fitted[1]), 1.0, 1e-3);
+  return physical.asDiagonal() * (variance * lu.inverse()) * physical.asDiagonal();
+}
+
 }  // namespace
 
 ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const ServoValveParameters& start,
@@ -256,6 +290,7 @@ ValveOperationFit fitValveToOperation(const std::vector<ValveSample>& all, const
   residuals(samples, fit.parameters, max_gap, r.data());
   fit.residual_rms = rms(r, spool.size());
   fit.success = std::isfinite(fit.residual_rms) && fit.residual_rms <= 3.0 * fit.noise_sigma;
+  if (fit.success) fit.covariance = parameterCovariance(samples, best, max_gap, r, spool.size());
   fit.message = formatted(
       FMT_STRING("{:.1f} Hz, damping {:.2f}, gain {:.4g} 1/V, dead time {:.2f} ms from {} valve messages of "
                  "operation: spool residual {:.2g} against a sensor noise of {:.2g} ({:.2g} with the model "

@@ -46,7 +46,8 @@ void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& 
       out << YAML::Key << "std_parts" << YAML::Value << YAML::BeginMap << YAML::Key << "regression"
           << YAML::Value << u.regression << YAML::Key << "cycles" << YAML::Value << u.cycles << YAML::Key
           << "free_run" << YAML::Value << u.free_run << YAML::Key << "misfit" << YAML::Value << u.misfit
-          << YAML::Key << "method" << YAML::Value << u.method << YAML::EndMap;
+          << YAML::Key << "method" << YAML::Value << u.method << YAML::Key << "valve_model" << YAML::Value
+          << u.valve_model << YAML::Key << "velocity" << YAML::Value << u.velocity << YAML::EndMap;
     }
     out << YAML::EndMap;
   }

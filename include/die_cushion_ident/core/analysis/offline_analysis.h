@@ -95,6 +95,7 @@ struct OfflineResult {
   std::string topic_delays_source = "none";  ///< "configured", "estimated" or "none" (estimate not usable)
   std::optional<TopicDelayEstimate> delay_estimate;  ///< when estimated from the data
   std::uint64_t derived_velocity_samples = 0;       ///< grid samples whose velocity came from the position
+  std::uint64_t predicted_spool_messages = 0;  ///< valve messages whose spool the valve model stood in for
   std::vector<AnalysisWarning> warnings;
   /// The settings chosen from the recording (analyze_bag's survey), when they were.
   std::optional<SettingsChoice> settings;

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <limits>
 #include <map>
@@ -64,6 +65,11 @@ struct IdentificationConfig {
   /// (SettingsFromRecording fitted it to the recording's operation). Where the spool is not measured the
   /// model's spool drives everything anyway.
   bool valve_model_drives_free_run = false;
+  /// The covariance of `valve`'s natural_frequency [Hz], damping, gain [1/V] and dead_time [s] where it was
+  /// fitted to the recording's operation (ValveOperationFit::covariance), which made the grid's y_model; zero
+  /// where it is configured. Its error moves the free run's spool, and with it the refined parameters
+  /// (ParameterUncertainty::valve_model).
+  Eigen::Matrix4d valve_covariance = Eigen::Matrix4d::Zero();
   /// The held-out tests refine each training fit by its free run's error (refineByOutputError) where that
   /// reaches the noise: set by the offline analysis; the live ranking, which must keep pace with the
   /// strokes, leaves it off.

@@ -54,6 +54,8 @@ class IdentificationPipeline {
   double velocityDelay() const { return velocity_.delaySamples() * sample_period_; }
   /// Grid samples whose velocity was derived from the position.
   std::uint64_t derivedVelocitySamples() const { return velocity_.derived(); }
+  /// Valve messages whose spool the valve model stood in for (the topic carries none).
+  std::uint64_t predictedSpoolMessages() const { return spool_model_.predicted(); }
 
   const HydraulicIdentifier& identifier() const { return identifier_; }
   HydraulicIdentifier& identifier() { return identifier_; }

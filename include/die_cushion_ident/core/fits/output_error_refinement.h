@@ -1,8 +1,10 @@
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
+#include "die_cushion_ident/core/fits/input_perturbation.h"
 #include "die_cushion_ident/core/model/hydraulic_model.h"
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
 
@@ -21,6 +23,11 @@ struct OutputErrorFit {
   /// [s] how much later the position is read where its shift was an unknown (position_shift_scale > 0):
   /// add it to the position topic's delay.
   double position_shift = 0.0;
+  /// Per reconstructed input (OutputErrorOptions::inputs, by InputPerturbation::input), the parameters'
+  /// standard uncertainty from that input's: the root sum of squares of (J'J)^-1 J' dr over its
+  /// perturbations, dr the free run's change at `theta` (the refit's change to first order). Computed with
+  /// the stds.
+  std::map<std::string, ParameterVector> input_std;
   std::string message;
 };
 
@@ -49,6 +56,9 @@ struct OutputErrorOptions {
   /// parameters; a tight tolerance keeps that roughness far below the differences the numeric derivatives
   /// take.
   double tolerance = 1.0;
+  /// The reconstructed inputs' uncertainties (the valve model's spool, a derived velocity) to carry into the
+  /// parameters (OutputErrorFit::input_std); read only with the stds.
+  std::vector<InputPerturbation> inputs;
 };
 
 /// Minimises the free run's error over the parameters (Ceres, from the equation-error estimate `start`),

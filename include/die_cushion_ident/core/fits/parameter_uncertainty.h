@@ -9,8 +9,9 @@
 namespace die_cushion_ident {
 
 /// What a reported parameter's standard uncertainty is made of [its unit]:
-/// u = sqrt(max((regression^2 + cycles^2) / 2, free_run^2) + misfit^2 + method^2) (doc/equations.md,
-/// "What analyze_bag reports"):
+/// u = sqrt(s^2 + misfit^2 + method^2 + valve_model^2 + velocity^2), s = free_run where the free run's inputs
+/// are all known, else max(sqrt((regression^2 + cycles^2) / 2), free_run) (doc/equations.md, "What
+/// analyze_bag reports"):
 ///  - `regression`: the equation-error fit's own, its Newey-West sandwich;
 ///  - `cycles`: the delete-a-group jackknife over press cycles (applyCycleJackknife): the cycles are the
 ///    independent units, so the errors' correlation over a stroke and a model error that differs from
@@ -28,19 +29,26 @@ namespace die_cushion_ident {
 ///    difference bounds the bias that neither std sees, taken as a rectangular distribution of that half
 ///    width (GUM, type B).
 /// Over 250 recordings of every press class x sensor configuration x effect (scripts/uncertainty_calibration,
-/// seeds 20261125 and 20261127) the combination had median |error| / std 0.55 / 0.57 and 94.8 % of the
-/// errors within 1.96 std (the free run's sandwich pooled with the equation error's jackknife and no misfit
-/// part, before: 0.58 / 0.60, 93.1 / 92.8 %). By press class: large soft, small stiff and slow hydraulic
-/// within 0.53-0.74 and 93.0-96.0 %; the fast press 93.9-94.7 % within but median 0.33-0.45: its well
-/// measured estimates' errors are a third of u (the free run is 3-7 times more precise than the equation
-/// error there, and no part says by how much), a few are 3-15 std off (a predicted spool, a derived
-/// velocity biasing both estimators alike).
+/// seeds 20261125, 20261127 and 20261126) each press class had median |error| / std 0.57-0.78 and 91.9-96.9 %
+/// within 1.96 std (before the valve model's part: the fast press's median 0.33-0.45, its stds too wide where
+/// the inputs are measured). Short of 93 %: a fast press without a spool sensor running the default valve
+/// model, and a position recorded at 500 Hz (doc/equations.md).
 struct ParameterUncertainty {
   double regression = 0.0;
   double cycles = 0.0;
   double free_run = 0.0;
   double misfit = 0.0;
   double method = 0.0;
+  /// `valve_model`, `velocity`: where the free run refined the estimate, what the reconstructed inputs' own
+  /// uncertainty makes of it (OutputErrorFit::input_std): the valve model fitted to the operation, whose
+  /// spool drives the free run, and a velocity derived from the position (0 where measured).
+  double valve_model = 0.0;
+  double velocity = 0.0;
+  /// Every input of the free run is measured or has its uncertainty in valve_model / velocity: the free
+  /// run's sandwich alone is then the refined estimate's statistical part. Otherwise (a configured valve
+  /// model drives it, or a velocity whose error is not fully propagated) the equation error's pool bounds it
+  /// too.
+  bool free_run_inputs_known = false;
   /// sqrt((regression^2 + cycles^2) / 2), or regression where the jackknife did not run.
   double equationError() const;
   double combined() const;
@@ -53,6 +61,7 @@ struct ParameterUncertainty {
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
                                                      const std::optional<OutputErrorFit>& refined,
                                                      const HydraulicEstimate* jackknife,
-                                                     HydraulicEstimate* reported);
+                                                     HydraulicEstimate* reported,
+                                                     bool free_run_inputs_known = false);
 
 }  // namespace die_cushion_ident

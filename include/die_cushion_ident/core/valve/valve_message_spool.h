@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <limits>
 
 #include "die_cushion_ident/core/signal/uniform_resampler.h"
@@ -23,6 +24,8 @@ class ValveMessageSpool {
   /// Whether the model's spool drives the free run (StreamSample::third) from the next message on.
   void setDrivesFreeRun(bool drives_free_run) { drives_free_run_ = drives_free_run; }
   void reset();
+  /// Messages whose spool the model stood in for (not measured) since construction (a reset keeps the count).
+  std::uint64_t predicted() const { return predicted_; }
 
  private:
   ServoValve model_;
@@ -32,6 +35,7 @@ class ValveMessageSpool {
   double last_voltage_ = 0.0;
   double last_measured_ = 0.0;
   bool running_ = false;
+  std::uint64_t predicted_ = 0;
 };
 
 }  // namespace die_cushion_ident

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,11 @@ struct ValveOperationFit {
   double noise_sigma = 0.0;         ///< [-] the spool sensor's white noise (second differences)
   double start_residual_rms = 0.0;  ///< [-] the same with the starting (configured) model
   int samples = 0;
+  /// The fitted parameters' covariance, in the order natural_frequency [Hz], damping [-], gain [1/V],
+  /// dead_time [s]: s^2 (J'J)^-1 with J the spool's sensitivity to them at the fit (central differences)
+  /// and s the spool's residual rms; zero where the fit did not succeed. What the valve model's error does
+  /// to the hydraulic parameters through the free run it drives (OutputErrorOptions::inputs).
+  Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();
 };
 
 /// Output-error fit (Ceres, bounded: 5-2000 Hz, damping 0.1-3, dead time 0-20 ms) of the model's spool,

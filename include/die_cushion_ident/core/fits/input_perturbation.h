@@ -1,0 +1,59 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "die_cushion_ident/core/estimation/identification_config.h"
+#include "die_cushion_ident/core/model/hydraulic_model.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
+
+namespace die_cushion_ident {
+
+/// One standard uncertainty of a reconstructed input of the free run, as the change it makes to the grid's
+/// first samples: `spool` is added to the spool that drives the free run (FreeRunPressure::spoolOf),
+/// `velocity` to the velocity [m/s]; either may be empty (no change). refineByOutputError carries it into
+/// the parameters through its Jacobian (OutputErrorOptions::inputs): the measured pressure cannot tell a
+/// parameter's change from the input's error the same pressure change comes from, so the input's
+/// uncertainty is the parameters' too (doc/equations.md, "The reconstructed inputs' part").
+struct InputPerturbation {
+  std::string input;  ///< which input's uncertainty: the parts of one input add in quadrature
+  std::vector<float> spool, velocity;
+};
+
+/// The grid's first `n` samples with `perturbation` added `sign` (+1 or -1) times.
+std::vector<GridSample> perturbed(const std::vector<GridSample>& grid, std::size_t n,
+                                  const InputPerturbation& perturbation, double sign);
+
+/// The valve model's uncertainty as spool changes ("valve_model"), one per principal axis of `covariance`
+/// (natural_frequency [Hz], damping, gain [1/V], dead_time [s]; ValveOperationFit::covariance): the
+/// model's spool for the grid's commands at the parameters moved one std along the axis, less the one moved
+/// back, halved. Where the grid's spool is not the model's (y_model NaN) the change is 0. Empty where the
+/// covariance is zero.
+std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSample>& grid, std::size_t n,
+                                                       const ServoValveParameters& valve,
+                                                       const Eigen::Matrix4d& covariance);
+
+/// A velocity derived from the position over `window` [s] as a velocity change ("velocity"): by Richardson,
+/// a derivative's error that grows in proportion to its window is the change from the window to twice it,
+/// both least-squares slopes of the grid's positions. Empty where the grid is too short.
+InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n,
+                                              double window);
+
+/// What drives the free run on the grid's first `n` samples beside the measurements, as perturbations: the
+/// valve model's spool where it was fitted to the recording (`config.valve_covariance`), and a velocity
+/// derived from the position (`velocity_derived`) over `config.velocity_window`.
+std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
+                                                         const IdentificationConfig& config,
+                                                         bool velocity_derived);
+
+/// Whether every input of the free run over the grid's first `n` samples is measured or carries its
+/// uncertainty (freeRunInputUncertainties): a measured velocity, and the measured spool or a valve model
+/// fitted to it. A configured valve model's spool (`spool_predicted`: it stood in for a spool the topic does
+/// not carry, or y_model without a covariance), a derived velocity or the oil's temperature (where `model`
+/// follows it) is not: its error is in neither std (ParameterUncertainty::free_run_inputs_known).
+bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n, const IdentificationConfig& config,
+                        const HydraulicModel& model, bool velocity_derived, bool spool_predicted);
+
+}  // namespace die_cushion_ident
