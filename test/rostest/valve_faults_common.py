@@ -117,6 +117,17 @@ def back_at_offset_after(commands, fault, offset):
     return math.inf, []
 
 
+def handed_back_around(commands, fault, offset, lag):
+    """[s] from `fault` to the sweep's hand-back to `offset` (the first command at it after one that is not),
+    found from `lag` seconds before `fault` on: a fault this process notices on one subscription (a /clock at
+    1 kHz, queued behind its own callbacks under load) may come after the node's reaction arrived on another.
+    0 where the hand-back arrived before the fault was noticed; inf where there is none in that window."""
+    for (_, before), (arrival, voltage) in zip(commands, commands[1:]):
+        if arrival >= fault - lag and abs(voltage - offset) < 1e-9 and abs(before - offset) >= 1e-9:
+            return max(arrival - fault, 0.0)
+    return math.inf
+
+
 def check_limits(case, messages, low, high):
     for _, voltage in messages:
         case.assertTrue(math.isfinite(voltage) and low - 1e-9 <= voltage <= high + 1e-9,
