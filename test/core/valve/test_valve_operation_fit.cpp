@@ -109,6 +109,32 @@ TEST(ValveOperationFit, RefusesWhatCannotBeFitted) {
   EXPECT_DOUBLE_EQ(fit.parameters.natural_frequency, ServoValveParameters().natural_frequency);
 }
 
+namespace {
+
+// 10 s at 1 kHz of commands the simulated presses do not make (random steps of 20-80 ms and a 7 Hz sine) and
+// the valve's spool under them, measured with 0.002 of noise; `commands` and `sensor` may be one generator.
+std::vector<ValveSample> randomOperation(const ServoValveParameters& truth, std::mt19937& commands,
+                                         std::mt19937& sensor) {
+  ServoValve valve(truth, 1e-5);
+  std::uniform_real_distribution<double> level(-4.0, 4.0), hold(0.02, 0.08);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  std::vector<ValveSample> samples;
+  double step = 0.0, next_step = 0.0;
+  for (int k = 0; k < 10000; ++k) {
+    const double t = 0.001 * k;
+    if (t >= next_step) {
+      step = level(commands);
+      next_step = t + hold(commands);
+    }
+    const double u = step + 2.0 * std::sin(2.0 * M_PI * 7.0 * t);
+    samples.push_back({t, u, valve.position() + noise(sensor)});
+    valve.advance(0.001, u);
+  }
+  return samples;
+}
+
+}  // namespace
+
 // Valves unlike any press class's and unlike the default start (80 Hz, damping 0.7, 2 ms), under commands
 // the simulated presses do not make (random steps and a slow sine, 10 s at 1 kHz, the spool measured with
 // 0.002 of noise): the start screen must find each one's basin, not the local minimum where the natural
@@ -124,23 +150,8 @@ TEST(ValveOperationFit, FindsValvesUnlikeTheStartFromRandomCommands) {
     truth.natural_frequency = v.frequency;
     truth.damping = v.damping;
     truth.dead_time = v.dead_time;
-    ServoValve valve(truth, 1e-5);
     std::mt19937 rng(7);
-    std::uniform_real_distribution<double> level(-4.0, 4.0), hold(0.02, 0.08);
-    std::normal_distribution<double> noise(0.0, 0.002);
-    std::vector<ValveSample> samples;
-    double step = 0.0, next_step = 0.0;
-    for (int k = 0; k < 10000; ++k) {
-      const double t = 0.001 * k;
-      if (t >= next_step) {
-        step = level(rng);
-        next_step = t + hold(rng);
-      }
-      const double u = step + 2.0 * std::sin(2.0 * M_PI * 7.0 * t);
-      samples.push_back({t, u, valve.position() + noise(rng)});
-      valve.advance(0.001, u);
-    }
-    const ValveOperationFit fit = fitValveToOperation(samples, ServoValveParameters());
+    const ValveOperationFit fit = fitValveToOperation(randomOperation(truth, rng, rng), ServoValveParameters());
     ASSERT_TRUE(fit.success) << fit.message;
     EXPECT_NEAR(fit.parameters.natural_frequency / v.frequency, 1.0, 0.03) << fit.message;
     EXPECT_NEAR(fit.parameters.damping / v.damping, 1.0, 0.05) << fit.message;
@@ -168,23 +179,9 @@ TEST(ValveOperationFit, ItsCovarianceMatchesTheScatterOverTheSpoolsNoise) {
     truth.dead_time = v.dead_time;
     for (unsigned seed = 1; seed <= 10; ++seed) {
       SCOPED_TRACE(std::to_string(v.frequency) + " Hz, noise seed " + std::to_string(seed));
-      ServoValve valve(truth, 1e-5);
       std::mt19937 commands(7), sensor(seed);
-      std::uniform_real_distribution<double> level(-4.0, 4.0), hold(0.02, 0.08);
-      std::normal_distribution<double> noise(0.0, 0.002);
-      std::vector<ValveSample> samples;
-      double step = 0.0, next_step = 0.0;
-      for (int k = 0; k < 10000; ++k) {
-        const double t = 0.001 * k;
-        if (t >= next_step) {
-          step = level(commands);
-          next_step = t + hold(commands);
-        }
-        const double u = step + 2.0 * std::sin(2.0 * M_PI * 7.0 * t);
-        samples.push_back({t, u, valve.position() + noise(sensor)});
-        valve.advance(0.001, u);
-      }
-      const ValveOperationFit fit = fitValveToOperation(samples, ServoValveParameters());
+      const ValveOperationFit fit =
+          fitValveToOperation(randomOperation(truth, commands, sensor), ServoValveParameters());
       ASSERT_TRUE(fit.success) << fit.message;
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eigen(fit.covariance);
       ASSERT_GT(eigen.eigenvalues().minCoeff(), 0.0) << fit.covariance;
