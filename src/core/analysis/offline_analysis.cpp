@@ -122,6 +122,7 @@ void GridCoverage::add(const GridSample& g) {
 
 OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config)
     : config_(config),
+      free_run_valve_(config.valve),
       pipeline_(config),
       grid_(static_cast<std::size_t>(config.max_analysed_samples), leadInSamples(config)) {
   config_.refine_held_out_fits = true;
@@ -515,8 +516,10 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
     OutputErrorOptions refine;
     refine.jobs = jobs_;
     refine.pressure_noise = config_.grid_pressure_noise;
+    IdentificationConfig driving = config_;
+    driving.valve = free_run_valve_;
     refine.inputs =
-        freeRunInputUncertainties(grid_.grid(), refine.max_samples, config_, r.derived_velocity_samples > 0);
+        freeRunInputUncertainties(grid_.grid(), refine.max_samples, driving, r.derived_velocity_samples > 0);
     r.output_error = refineByOutputError(grid_.grid(), model, r.model.values(), r.model.standardDeviations(),
                                          config_.min_pressure, refine);
     if (r.output_error->improved) {

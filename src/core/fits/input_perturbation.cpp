@@ -9,6 +9,22 @@
 
 namespace die_cushion_ident {
 
+namespace {
+
+bool changesNothing(const InputPerturbation& p) {
+  const auto zero = [](const std::vector<float>& v) {
+    return std::all_of(v.begin(), v.end(), [](float x) { return x == 0.0f; });
+  };
+  return zero(p.spool) && zero(p.velocity);
+}
+
+// A covariance the valve model's part can be made from: finite, every parameter's variance positive.
+bool usableCovariance(const Eigen::Matrix4d& covariance) {
+  return covariance.allFinite() && (covariance.diagonal().array() > 0.0).all();
+}
+
+}  // namespace
+
 std::vector<GridSample> perturbed(const std::vector<GridSample>& grid, std::size_t n,
                                   const InputPerturbation& perturbation, double sign) {
   n = std::min(n, grid.size());
@@ -68,8 +84,8 @@ std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSam
                                                        const Eigen::Matrix4d& covariance) {
   std::vector<InputPerturbation> perturbations;
   n = std::min(n, grid.size());
-  const Eigen::Vector4d stds = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-  if (n < 2 || !covariance.allFinite() || !(stds.minCoeff() > 0.0)) return perturbations;
+  if (n < 2 || !usableCovariance(covariance)) return perturbations;
+  const Eigen::Vector4d stds = covariance.diagonal().cwiseSqrt();
   // The principal axes of the correlation matrix (the parameters' units differ by nine decades), each
   // scaled back to the parameters' units: independent directions whose variances add up.
   const Eigen::Matrix4d correlation =
@@ -80,13 +96,15 @@ std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSam
     const double variance = axes.eigenvalues()(j);
     if (!(variance > 1e-12)) continue;
     const Eigen::Vector4d step = stds.asDiagonal() * axes.eigenvectors().col(j) * std::sqrt(variance);
-    const std::vector<double> plus = modelSpool(grid, n, moved(valve, step));
-    const std::vector<double> minus = modelSpool(grid, n, moved(valve, -step));
+    // Where the step back would put the dead time below 0 (a fit at its bound), one-sided from the model.
+    const bool one_sided = valve.dead_time - step(3) < 0.0 || valve.dead_time + step(3) < 0.0;
+    const std::vector<double> plus = modelSpool(grid, n, moved(valve, one_sided && step(3) < 0.0 ? -step : step));
+    const std::vector<double> minus = modelSpool(grid, n, one_sided ? valve : moved(valve, -step));
     InputPerturbation perturbation;
     perturbation.input = "valve_model";
     perturbation.spool.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      const double change = 0.5 * (plus[i] - minus[i]);
+      const double change = (one_sided ? 1.0 : 0.5) * (plus[i] - minus[i]);
       perturbation.spool[i] = std::isfinite(change) ? static_cast<float>(change) : 0.0f;
     }
     perturbations.push_back(std::move(perturbation));
@@ -113,20 +131,20 @@ std::vector<GridSample> derivedAgain(const std::vector<GridSample>& grid, std::s
 }  // namespace
 
 InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n,
-                                              double window) {
+                                              int half_width) {
   InputPerturbation perturbation;
   perturbation.input = "velocity";
   n = std::min(n, grid.size());
-  if (n < 8) return perturbation;
-  const double period = (grid[n - 1].t - grid[0].t) / static_cast<double>(n - 1);
-  if (!(period > 0.0)) return perturbation;
-  const int half_width = std::max(1, static_cast<int>(std::lround(0.5 * window / period)));
+  if (n < 8 || half_width < 1) return perturbation;
   const std::vector<GridSample> at_window = derivedAgain(grid, n, half_width);
   const std::vector<GridSample> at_twice = derivedAgain(grid, n, 2 * half_width);
   perturbation.velocity.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double change = at_twice[i].v - at_window[i].v;
-    perturbation.velocity[i] = std::isfinite(change) ? static_cast<float>(change) : 0.0f;
+    // Only where the grid's velocity is the one derived at the window (a measured one, where the topic has
+    // it, is not changed).
+    const double derived = at_window[i].v, change = at_twice[i].v - derived;
+    const bool is_derived = std::abs(grid[i].v - derived) <= 1e-6 + 1e-5 * std::abs(derived);
+    perturbation.velocity[i] = is_derived && std::isfinite(change) ? static_cast<float>(change) : 0.0f;
   }
   return perturbation;
 }
@@ -137,7 +155,9 @@ std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridS
   n = std::min(n, grid.size());
   std::vector<InputPerturbation> inputs =
       valveModelPerturbations(grid, n, config.valve, config.valve_covariance);
-  if (velocity_derived) inputs.push_back(derivedVelocityPerturbation(grid, n, config.velocity_window));
+  if (velocity_derived) inputs.push_back(derivedVelocityPerturbation(grid, n, config.velocityHalfWidth()));
+  // Each costs two free runs: none for a change of nothing (no model spool on the grid, a measured velocity).
+  inputs.erase(std::remove_if(inputs.begin(), inputs.end(), changesNothing), inputs.end());
   return inputs;
 }
 
@@ -147,7 +167,7 @@ bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n, cons
   // second, not in the chamber: an input whose error no part carries (a slow press whose oil warmed 20 K had
   // its bulk modulus at 40 degC 4.6 of the free run's stds off, 1.2 %).
   if (velocity_derived || model.oilStateParameter() >= 0) return false;
-  const bool fitted_model = !config.valve_covariance.isZero();
+  const bool fitted_model = usableCovariance(config.valve_covariance);
   n = std::min(n, grid.size());
   for (std::size_t i = 0; i < n; ++i) {
     if (std::isfinite(grid[i].y_model)) return fitted_model;  // the valve model's spool drives the free run

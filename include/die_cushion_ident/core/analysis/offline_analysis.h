@@ -172,6 +172,9 @@ class OfflineAnalysis {
 
  private:
   IdentificationConfig config_;
+  /// The valve model whose spool the grid holds (y_model), with config_.valve_covariance: a sweep analysed
+  /// after the reading replaces config_.valve, not the grid's spool.
+  ServoValveParameters free_run_valve_;
   int jobs_ = 0;
   double resolution_error_ = 0.0;
   std::string resolution_remedy_;

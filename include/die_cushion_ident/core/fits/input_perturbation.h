@@ -29,21 +29,24 @@ std::vector<GridSample> perturbed(const std::vector<GridSample>& grid, std::size
 /// The valve model's uncertainty as spool changes ("valve_model"), one per principal axis of `covariance`
 /// (natural_frequency [Hz], damping, gain [1/V], dead_time [s]; ValveOperationFit::covariance): the
 /// model's spool for the grid's commands at the parameters moved one std along the axis, less the one moved
-/// back, halved. Where the grid's spool is not the model's (y_model NaN) the change is 0. Empty where the
-/// covariance is zero.
+/// back, halved (one-sided where the dead time would go below 0). Where the grid's spool is not the model's
+/// (y_model NaN) the change is 0. Empty unless the covariance is finite with every variance positive.
 std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSample>& grid, std::size_t n,
                                                        const ServoValveParameters& valve,
                                                        const Eigen::Matrix4d& covariance);
 
-/// A velocity derived from the position over `window` [s] as a velocity change ("velocity"): by Richardson,
-/// a derivative's error that grows in proportion to its window is the change from the window to twice it,
-/// both least-squares slopes of the grid's positions. Empty where the grid is too short.
-InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n,
-                                              double window);
+/// A velocity derived from the position over 2 `half_width` + 1 grid samples as a velocity change
+/// ("velocity"): the change from that window to twice it, both least-squares slopes of the grid's positions,
+/// where the grid's velocity is the one derived at the window (to 1e-6 m/s; 0 where it was measured, whose
+/// noise keeps it off the derived value). At a kink of the
+/// motion (the ram's impact) the derivative's error grows in proportion to its window, and the change is
+/// the error itself (Richardson); in smooth stretches it grows with the window's square, and the change is
+/// about three times it. Empty where the grid is too short.
+InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n, int half_width);
 
 /// What drives the free run on the grid's first `n` samples beside the measurements, as perturbations: the
 /// valve model's spool where it was fitted to the recording (`config.valve_covariance`), and a velocity
-/// derived from the position (`velocity_derived`) over `config.velocity_window`.
+/// derived from the position (`velocity_derived`) over `config.velocity_window`; those that change nothing left out.
 std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
                                                          const IdentificationConfig& config,
                                                          bool velocity_derived);
