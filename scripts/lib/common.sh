@@ -19,6 +19,9 @@ BOOTSTRAP_PACKAGES=(python3 python3-catkin-pkg python3-yaml)
 # (scripts/fuzz), catkin_lint (scripts/lint), catkin-tools (test/install/test_install_space --catkin-tools).
 SCRIPT_PACKAGES=(build-essential ccache catkin-lint catkin-tools clang cmake git libclang-rt-14-dev)
 
+# shellcheck source=scripts/lib/roscore.sh
+source "$REPO_ROOT/scripts/lib/roscore.sh"
+
 log() { printf '\033[1m[die_cushion_ident]\033[0m %s\n' "$*" >&2; }
 
 # The median of the numbers on standard input, one a line (the measuring scripts' runs).
