@@ -109,23 +109,42 @@ def start_when_at_rest(start, timeout=20.0, **request):
     raise AssertionError("never started: %s" % (response.message if response else "no response"))
 
 
+def _final_run_at(commands, offset):
+    """The index of the first command of the recording's final run of commands at `offset` (None where the
+    last command is not at it). A sweep's own command can equal its offset to the last bit, at the start of
+    each frequency (phase 0), so the hand-back is the run at the offset that nothing but the offset follows,
+    not the first command at it."""
+    at = [abs(voltage - offset) < 1e-9 for _, voltage in commands]
+    if not at or not at[-1]:
+        return None
+    i = len(at) - 1
+    while i > 0 and at[i - 1]:
+        i -= 1
+    return i
+
+
 def back_at_offset_after(commands, fault, offset):
-    """[s] from `fault` to the first command at `offset` after it, and the commands after that."""
-    for i, (arrival, voltage) in enumerate(commands):
-        if arrival >= fault and abs(voltage - offset) < 1e-9:
-            return arrival - fault, commands[i + 1:]
-    return math.inf, []
+    """[s] from `fault` to the hand-back to `offset` (the first command of the final run at it; the command at
+    the fault's moment where the run began before), and the commands after the hand-back (none: it is sent
+    once). inf where the commands after the fault do not end at the offset."""
+    after_fault = [c for c in commands if c[0] >= fault]
+    i = _final_run_at(after_fault, offset)
+    if i is None:
+        return math.inf, []
+    return after_fault[i][0] - fault, after_fault[i + 1:]
 
 
 def handed_back_around(commands, fault, offset, lag):
-    """[s] from `fault` to the sweep's hand-back to `offset` (the first command at it after one that is not),
-    found from `lag` seconds before `fault` on: a fault this process notices on one subscription (a /clock at
-    1 kHz, queued behind its own callbacks under load) may come after the node's reaction arrived on another.
-    0 where the hand-back arrived before the fault was noticed; inf where there is none in that window."""
-    for (_, before), (arrival, voltage) in zip(commands, commands[1:]):
-        if arrival >= fault - lag and abs(voltage - offset) < 1e-9 and abs(before - offset) >= 1e-9:
-            return max(arrival - fault, 0.0)
-    return math.inf
+    """[s] from `fault` to the sweep's hand-back to `offset` (the first command of the final run at it after a
+    command that is not), found from `lag` seconds before `fault` on: a fault this process notices on one
+    subscription (a /clock at 1 kHz, queued behind its own callbacks under load) may come after the node's
+    reaction arrived on another. 0 where the hand-back arrived before the fault was noticed; inf where there
+    is none in that window."""
+    window = [c for c in commands if c[0] >= fault - lag]
+    i = _final_run_at(window, offset)
+    if not i:  # no final run at the offset, or no command before it in the window that was not
+        return math.inf
+    return max(window[i][0] - fault, 0.0)
 
 
 def check_limits(case, messages, low, high):
