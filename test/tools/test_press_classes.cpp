@@ -593,7 +593,7 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
                                "free_run_samples",   "survey_pressure_noise", "noise_rms",
                                "resolution_error",   "velocity_error",        "position_rate_error",
                                "valve_rate_error",   "numerical_error",       "free_run_spool",
-                               "velocity",           "valve_fit_used",        "valve_fit_residual_rms",
+                               "velocity_source",    "valve_fit_used",        "valve_fit_residual_rms",
                                "valve_fit_noise",    "position_delay_shift",  "position_delay_std",
                                "equation_error_rms", "simulation_error_rms",  "cycles_fitted"})
       csv->text(column);

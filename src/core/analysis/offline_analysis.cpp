@@ -511,15 +511,16 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
   // Refined by the free run's error where that brings it to the noise (refineByOutputError), unless the
   // fit is implausible (then the model does not describe the recording, and fitting its free run would
   // hide that).
+  FreeRunInputSources sources;
+  sources.velocity_derived = r.derived_velocity_samples > 0;
+  sources.spool_predicted = r.predicted_spool_messages > 0;
+  OutputErrorOptions refine;
   if (!r.partial) {
     tell("refining the parameters by the free run's error");
-    OutputErrorOptions refine;
     refine.jobs = jobs_;
     refine.pressure_noise = config_.grid_pressure_noise;
-    IdentificationConfig driving = config_;
-    driving.valve = free_run_valve_;
-    refine.inputs =
-        freeRunInputUncertainties(grid_.grid(), refine.max_samples, driving, r.derived_velocity_samples > 0);
+    refine.inputs = freeRunInputUncertainties(grid_.grid(), refine.max_samples, config_, free_run_valve_,
+                                              sources.velocity_derived);
     r.output_error = refineByOutputError(grid_.grid(), model, r.model.values(), r.model.standardDeviations(),
                                          config_.min_pressure, refine);
     if (r.output_error->improved) {
@@ -533,8 +534,7 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
   const bool resampled = applyCycleJackknife(grid_.grid(), r.strokes, config_, &jackknife, 10, jobs_);
   r.uncertainty =
       combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model,
-                         freeRunInputsKnown(grid_.grid(), OutputErrorOptions().max_samples, config_, model,
-                                            r.derived_velocity_samples > 0, r.predicted_spool_messages > 0));
+                         freeRunInputsKnown(grid_.grid(), refine.max_samples, config_, model, sources));
   tell("running the model free against the measurement");
   r.assessment = assessModel(grid_.grid(), r.strokes, model, r.model.values(), config_.min_pressure);
   if (r.assessment.samples == 0) {

@@ -34,7 +34,7 @@ std::vector<GridSample> perturbed(const std::vector<GridSample>& grid, std::size
     if (i < perturbation.spool.size() && std::isfinite(g.y_model)) {
       g.y_model = static_cast<float>(g.y_model + sign * perturbation.spool[i]);
     }
-    if (i < perturbation.velocity.size() && std::isfinite(perturbation.velocity[i])) {
+    if (i < perturbation.velocity.size()) {
       g.v = static_cast<float>(g.v + sign * perturbation.velocity[i]);
     }
   }
@@ -95,11 +95,13 @@ std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSam
   for (int j = 0; j < 4; ++j) {
     const double variance = axes.eigenvalues()(j);
     if (!(variance > 1e-12)) continue;
-    const Eigen::Vector4d step = stds.asDiagonal() * axes.eigenvectors().col(j) * std::sqrt(variance);
+    // The axis's direction of rising dead time (an axis's sign drops out of its part).
+    Eigen::Vector4d up = stds.asDiagonal() * axes.eigenvectors().col(j) * std::sqrt(variance);
+    if (up(3) < 0.0) up = -up;
     // Where the step back would put the dead time below 0 (a fit at its bound), one-sided from the model.
-    const bool one_sided = valve.dead_time - step(3) < 0.0 || valve.dead_time + step(3) < 0.0;
-    const std::vector<double> plus = modelSpool(grid, n, moved(valve, one_sided && step(3) < 0.0 ? -step : step));
-    const std::vector<double> minus = modelSpool(grid, n, one_sided ? valve : moved(valve, -step));
+    const bool one_sided = valve.dead_time < up(3);
+    const std::vector<double> plus = modelSpool(grid, n, moved(valve, up));
+    const std::vector<double> minus = modelSpool(grid, n, one_sided ? valve : moved(valve, -up));
     InputPerturbation perturbation;
     perturbation.input = "valve_model";
     perturbation.spool.resize(n);
@@ -151,28 +153,30 @@ InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& gri
 
 std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
                                                          const IdentificationConfig& config,
+                                                         const ServoValveParameters& grid_valve,
                                                          bool velocity_derived) {
   n = std::min(n, grid.size());
   std::vector<InputPerturbation> inputs =
-      valveModelPerturbations(grid, n, config.valve, config.valve_covariance);
+      valveModelPerturbations(grid, n, grid_valve, config.valve_covariance);
   if (velocity_derived) inputs.push_back(derivedVelocityPerturbation(grid, n, config.velocityHalfWidth()));
   // Each costs two free runs: none for a change of nothing (no model spool on the grid, a measured velocity).
   inputs.erase(std::remove_if(inputs.begin(), inputs.end(), changesNothing), inputs.end());
   return inputs;
 }
 
-bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n, const IdentificationConfig& config,
-                        const HydraulicModel& model, bool velocity_derived, bool spool_predicted) {
+bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n,
+                        const IdentificationConfig& config, const HydraulicModel& model,
+                        const FreeRunInputSources& sources) {
   // The oil's temperature, where the model follows it, is read in the tank or the return line a few times a
   // second, not in the chamber: an input whose error no part carries (a slow press whose oil warmed 20 K had
   // its bulk modulus at 40 degC 4.6 of the free run's stds off, 1.2 %).
-  if (velocity_derived || model.oilStateParameter() >= 0) return false;
+  if (sources.velocity_derived || model.oilStateParameter() >= 0) return false;
   const bool fitted_model = usableCovariance(config.valve_covariance);
   n = std::min(n, grid.size());
   for (std::size_t i = 0; i < n; ++i) {
     if (std::isfinite(grid[i].y_model)) return fitted_model;  // the valve model's spool drives the free run
   }
-  return !spool_predicted;  // the topic's spool, unless a configured model stood in for it
+  return !sources.spool_predicted;  // the topic's spool, unless a configured model stood in for it
 }
 
 }  // namespace die_cushion_ident

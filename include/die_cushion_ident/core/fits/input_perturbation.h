@@ -45,18 +45,27 @@ std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSam
 InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n, int half_width);
 
 /// What drives the free run on the grid's first `n` samples beside the measurements, as perturbations: the
-/// valve model's spool where it was fitted to the recording (`config.valve_covariance`), and a velocity
-/// derived from the position (`velocity_derived`) over `config.velocity_window`; those that change nothing left out.
+/// spool of `grid_valve` (the model that made the grid's y_model) where it was fitted to the recording
+/// (`config.valve_covariance`) and a velocity derived from the position (`velocity_derived`) over
+/// `config.velocity_window`; those that change nothing left out.
 std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
                                                          const IdentificationConfig& config,
+                                                         const ServoValveParameters& grid_valve,
                                                          bool velocity_derived);
+
+/// Where the free run's inputs came from, beside the grid's own samples.
+struct FreeRunInputSources {
+  bool velocity_derived = false;  ///< from the position (no velocity on the topic)
+  bool spool_predicted = false;   ///< a configured valve model stood in for a spool the topic does not carry
+};
 
 /// Whether every input of the free run over the grid's first `n` samples is measured or carries its
 /// uncertainty (freeRunInputUncertainties): a measured velocity, and the measured spool or a valve model
-/// fitted to it. A configured valve model's spool (`spool_predicted`: it stood in for a spool the topic does
-/// not carry, or y_model without a covariance), a derived velocity or the oil's temperature (where `model`
-/// follows it) is not: its error is in neither std (ParameterUncertainty::free_run_inputs_known).
-bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n, const IdentificationConfig& config,
-                        const HydraulicModel& model, bool velocity_derived, bool spool_predicted);
+/// fitted to it. A configured valve model's spool (predicted, or y_model without a covariance), a derived
+/// velocity or the oil's temperature (where `model` follows it) is not: its error is in neither std
+/// (ParameterUncertainty::free_run_inputs_known).
+bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n,
+                        const IdentificationConfig& config, const HydraulicModel& model,
+                        const FreeRunInputSources& sources);
 
 }  // namespace die_cushion_ident
