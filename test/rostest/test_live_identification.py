@@ -155,9 +155,17 @@ class LiveIdentification(unittest.TestCase):
             base = target.set_effects(effects=[], custom_effects=[])
             self.assertTrue(base.success, base.message)
             self.assertEqual(list(base.parameters), ["bulk_modulus", "valve_flow_gain", "dead_volume"])
+        changed = rospy.Time.now()
         wait_for(lambda: all(list(t.estimate.get().effects) == [] for t in self.targets), 5,
                  "the base model's estimates")
-        rospy.sleep(12.0)
+        # A ranking of the base model on four complete press cycles (about 12 s of the simulated press). Not a
+        # fixed wait: under a loaded machine's scheduler the node ran behind the simulated clock, and its
+        # ranking 12 s after the change had one cycle ("too few complete press cycles (1)").
+        def ranked_base_model(target):
+            ranking = target.ranking.get()
+            return ranking is not None and ranking.header.stamp > changed and ranking.cycles >= 4
+        wait_for(lambda: all(ranked_base_model(t) for t in self.targets), 60,
+                 "a ranking of the base model on four press cycles")
         for target in self.targets:
             without_leakage = target.comparison.get().simulation_error_rms
             ranking = target.ranking.get()

@@ -64,11 +64,26 @@ class ValveFaults(unittest.TestCase):
                 self.press.inject(stamp_offset=lead)  # the drives stamp on a clock a second off
             self.sweep(offset=0.1)
             time.sleep(0.8)
+            killed = time.monotonic()
             self.press.kill()
-            time.sleep(0.4)
-            commands, _, last_input = self.recorder.snapshot()
-            delay, after = back_at_offset_after(commands, last_input, 0.1)
+            # Until the hand-back has arrived here (at most 2 s), then 0.3 s more for anything after it: under
+            # load this process's callbacks run behind what arrived, and a snapshot at a fixed 0.4 s once held
+            # no hand-back yet. The delay is judged on the arrival times either way.
+            while True:
+                time.sleep(0.1)
+                commands, _, last_input = self.recorder.snapshot()
+                # The bus died at the newest valve message this process saw, or at the kill where that
+                # message's callback ran later.
+                fault = min(last_input, killed)
+                if math.isfinite(back_at_offset_after(commands, fault, 0.1)[0]) or time.monotonic() > killed + 2.0:
+                    break
+            time.sleep(0.3)
+            commands, _, _ = self.recorder.snapshot()
+            delay, after = back_at_offset_after(commands, fault, 0.1)
             delays.append(delay)
+            if not delay <= SAFE_BOUND:
+                print("commands from 0.3 s before the fault: %r" %
+                      [(round(a - fault, 4), v) for a, v in commands if a >= fault - 0.3][:60])
             self.assertLessEqual(delay, SAFE_BOUND, "stamps %+g s: %.0f ms to the offset" % (lead, delay * 1e3))
             self.assertEqual(after, [], "nothing after the hand-back")
             check_limits(self, commands, -VOLTAGE, VOLTAGE)
