@@ -123,6 +123,14 @@ def _final_run_at(commands, offset):
     return i
 
 
+def sweep_running(recorder, offset, within=0.05):
+    """Whether the sweep still drives the valve: its newest command, off the offset, arrived within `within`
+    seconds. Under load the node's watchdog may already have stopped it (its command timer stalled for more
+    than the supervision timeout, a correct reaction): then a fault injected now would test nothing."""
+    commands, _, _ = recorder.snapshot()
+    return bool(commands) and time.monotonic() - commands[-1][0] <= within and abs(commands[-1][1] - offset) >= 1e-9
+
+
 def back_at_offset_after(commands, fault, offset):
     """[s] from `fault` to the hand-back to `offset` (the first command of the final run at it; the command at
     the fault's moment where the run began before), and the commands after the hand-back (none: it is sent
