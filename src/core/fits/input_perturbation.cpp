@@ -33,6 +33,11 @@ std::vector<GridSample> perturbed(const std::vector<GridSample>& grid, std::size
     GridSample& g = out[i];
     if (i < perturbation.spool.size() && std::isfinite(g.y_model)) {
       g.y_model = static_cast<float>(g.y_model + sign * perturbation.spool[i]);
+      // The interval's mean moves with it (the free run keeps the mean between samples): by the trapezoid.
+      if (std::isfinite(g.y_model_mean)) {
+        const float before = i > 0 ? perturbation.spool[i - 1] : perturbation.spool[i];
+        g.y_model_mean = static_cast<float>(g.y_model_mean + sign * 0.5 * (before + perturbation.spool[i]));
+      }
     }
     if (i < perturbation.velocity.size()) {
       g.v = static_cast<float>(g.v + sign * perturbation.velocity[i]);

@@ -167,6 +167,26 @@ UniformResampler::PushResult UniformResampler::accept(InputStream stream, const 
 
 void UniformResampler::flush(std::vector<GridSample>* out) { emitReady(out, true); }
 
+namespace {
+// The cubic Hermite between messages a and b at w in [0, 1], its slopes the secants through the neighbours
+// (Catmull-Rom on the messages' own, uneven stamps; the chord a-b where a neighbour is missing or not
+// finite).
+double cubicBetween(const StreamSample* before, const StreamSample& a, const StreamSample& b,
+                    const StreamSample* after, double w, double StreamSample::*channel) {
+  const double span = b.stamp - a.stamp;
+  const double chord = b.*channel - a.*channel;
+  const double slope_a = before && std::isfinite(before->*channel)
+                             ? (b.*channel - before->*channel) / (b.stamp - before->stamp) * span
+                             : chord;
+  const double slope_b = after && std::isfinite(after->*channel)
+                             ? (after->*channel - a.*channel) / (after->stamp - a.stamp) * span
+                             : chord;
+  const double w2 = w * w, w3 = w2 * w;
+  return a.*channel + w * slope_a + w2 * (3.0 * chord - 2.0 * slope_a - slope_b) +
+         w3 * (slope_a + slope_b - 2.0 * chord);
+}
+}  // namespace
+
 bool UniformResampler::interpolate(int stream, double t, double* first, double* second, double* third) const {
   const auto& buffer = channels_[stream].buffer;
   // The buffer is popped so that buffer[0] is the last message at or before the previous grid point.
@@ -181,6 +201,15 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
       const bool held = stream == static_cast<int>(InputStream::kValve);
       *first = held ? (t < b.stamp ? a.first : b.first) : a.first + w * (b.first - a.first);
       *second = a.second + w * (b.second - a.second);  // NaN stays NaN: not measured
+      if (stream == static_cast<int>(InputStream::kPosition)) {
+        const StreamSample* before =
+            i > 0 && a.stamp - buffer[i - 1].stamp <= config_.max_gap ? &buffer[i - 1] : nullptr;
+        const StreamSample* after = i + 2 < buffer.size() && buffer[i + 2].stamp - b.stamp <= config_.max_gap
+                                        ? &buffer[i + 2]
+                                        : nullptr;
+        *first = cubicBetween(before, a, b, after, w, &StreamSample::first);
+        *second = cubicBetween(before, a, b, after, w, &StreamSample::second);
+      }
       if (third) *third = a.third + w * (b.third - a.third);
       return true;
     }
@@ -199,6 +228,43 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
 
 double UniformResampler::lead(int stream) const {
   return stream == static_cast<int>(InputStream::kValve) ? 0.5 * config_.sample_period : 0.0;
+}
+
+bool UniformResampler::hasMessageAfterBracket(const std::deque<StreamSample>& buffer, double t) {
+  for (std::size_t i = 0; i < buffer.size(); ++i) {
+    if (buffer[i].stamp >= t) return i + 1 < buffer.size();
+  }
+  return false;
+}
+
+double UniformResampler::history(int stream) const {
+  return stream == static_cast<int>(InputStream::kValve) ? config_.sample_period : 0.0;
+}
+
+double UniformResampler::modelSpoolMean(double from, double to) const {
+  const auto& buffer = channels_[static_cast<int>(InputStream::kValve)].buffer;
+  double integral = 0.0, covered = 0.0;
+  for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
+    const StreamSample& a = buffer[i];
+    const StreamSample& b = buffer[i + 1];
+    const double lo = std::max(a.stamp, from), hi = std::min(b.stamp, to);
+    if (!(hi > lo)) continue;
+    const double stretch = b.stamp - a.stamp;
+    if (stretch > config_.max_gap || !std::isfinite(b.third_mean)) return kNaN;
+    covered += hi - lo;
+    if (lo == a.stamp && hi == b.stamp) {
+      integral += b.third_mean * stretch;
+      continue;
+    }
+    // Part of the stretch: the quadratic q(w) = a + (b - a) w + 6 c w (1 - w) through its ends with its mean
+    // (c = mean - (a + b) / 2), integrated from w0 to w1.
+    if (!std::isfinite(a.third) || !std::isfinite(b.third)) return kNaN;
+    const double c = b.third_mean - 0.5 * (a.third + b.third);
+    const double w0 = (lo - a.stamp) / stretch, w1 = (hi - a.stamp) / stretch;
+    const double squares = 0.5 * (w1 * w1 - w0 * w0), cubes = (w1 * w1 * w1 - w0 * w0 * w0) / 3.0;
+    integral += stretch * (a.third * (w1 - w0) + (b.third - a.third) * squares + 6.0 * c * (squares - cubes));
+  }
+  return covered >= (to - from) * (1.0 - 1e-9) ? integral / covered : kNaN;
 }
 
 UniformResampler::ValveIntervalMeans UniformResampler::valveIntervalMeans(double from, double to) const {
@@ -277,6 +343,7 @@ GridSample UniformResampler::sampleAt(double t, const GridValues& values) const 
   }
   if (std::isfinite(g.u)) g.u_mean = static_cast<float>(means.command);
   g.y_model = static_cast<float>(values.modelled_spool);
+  if (std::isfinite(g.y_model)) g.y_model_mean = static_cast<float>(modelSpoolMean(t - dt, t));
   g.complete = std::isfinite(g.p) && std::isfinite(g.x) && std::isfinite(g.u);
   return g;
 }
@@ -284,8 +351,10 @@ GridSample UniformResampler::sampleAt(double t, const GridValues& values) const 
 void UniformResampler::dropMessagesBefore(double t_next) {
   for (int s = 0; s < kInputStreamCount; ++s) {
     auto& buffer = channels_[s].buffer;
-    const double keep_from = t_next - lead(s);
-    while (buffer.size() >= 2 && buffer[1].stamp <= keep_from) buffer.pop_front();
+    const double keep_from = t_next - history(s);
+    // The position keeps one message more: the neighbour before the bracket, for its cubic.
+    const std::size_t kept = s == static_cast<int>(InputStream::kPosition) ? 2 : 1;
+    while (buffer.size() >= kept + 1 && buffer[kept].stamp <= keep_from) buffer.pop_front();
   }
 }
 
@@ -301,7 +370,12 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     for (int s = 0; s < kInputStreamCount; ++s) {
       const Channel& c = channels_[s];
       StreamHealth& h = health_[s];
-      const bool has_future = c.has_any && c.buffer.back().stamp >= t + (flushing ? 0.0 : lead(s));
+      const bool reaches = c.has_any && c.buffer.back().stamp >= t + (flushing ? 0.0 : lead(s));
+      // The position's cubic waits for the neighbour after the bracket too, unless the stream has fallen
+      // silent (then the chord ends it, as at the end of a recording).
+      const bool has_future = reaches && (flushing || s != static_cast<int>(InputStream::kPosition) ||
+                                          hasMessageAfterBracket(c.buffer, t) ||
+                                          newest_stamp_ - c.buffer.back().stamp >= config_.stale_timeout);
       if (has_future) {
         for (const auto& m : c.buffer) {
           if (m.stamp >= t) {

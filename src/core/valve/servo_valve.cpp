@@ -60,7 +60,11 @@ void ServoValve::propagateLinear(double h, double u) {
   const double w = omega_, a = parameters_.damping * omega_;
   const double e0 = y_ - parameters_.gain * u, de0 = y_dot_;
   const double e = p->decay * (e0 * p->c + (de0 + a * e0) * p->s_over_wd);
-  y_dot_ = p->decay * (de0 * p->c - (a * de0 + w * w * e0) * p->s_over_wd);
+  const double de = p->decay * (de0 * p->c - (a * de0 + w * w * e0) * p->s_over_wd);
+  // The equation itself integrated over the stretch: [e'] + 2 a [e] + w0^2 int e = 0.
+  integral_ +=
+      parameters_.gain * u * static_cast<double>(key) * 1e-9 - (de - de0 + 2.0 * a * (e - e0)) / (w * w);
+  y_dot_ = de;
   y_ = e + parameters_.gain * u;
   if (std::abs(y_) >= 1.0) {  // against the mechanical stop
     y_ = std::clamp(y_, -1.0, 1.0);
@@ -72,6 +76,7 @@ void ServoValve::reset(double position) {
   time_ = 0.0;
   y_ = position;
   y_dot_ = 0.0;
+  integral_ = 0.0;
   commands_.clear();
   commands_.emplace_back(-std::numeric_limits<double>::infinity(),
                          parameters_.gain != 0.0 ? position / parameters_.gain : 0.0);
@@ -95,6 +100,8 @@ void ServoValve::integrate(double h, double u) {
   const double v2 = y_dot_ + 0.5 * h * k1v, k2y = speed(v2), k2v = accel(y_ + 0.5 * h * k1y, v2);
   const double v3 = y_dot_ + 0.5 * h * k2v, k3y = speed(v3), k3v = accel(y_ + 0.5 * h * k2y, v3);
   const double v4 = y_dot_ + h * k3v, k4y = speed(v4), k4v = accel(y_ + h * k3y, v4);
+  // The integral as a third state (its rate is y): RK4's weights on the stages' positions.
+  integral_ += h / 6.0 * (y_ + 2.0 * (y_ + 0.5 * h * k1y) + 2.0 * (y_ + 0.5 * h * k2y) + y_ + h * k3y);
   y_ += h / 6.0 * (k1y + 2 * k2y + 2 * k3y + k4y);
   y_dot_ = speed(y_dot_ + h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v));
   if (std::abs(y_) >= 1.0) {  // against the mechanical stop
@@ -126,7 +133,7 @@ double ServoValve::advance(double dt, double command_voltage) {
 void ServoValve::propagateExactly(double h, double u) {
   // The closed form knows neither the mechanical stop nor the speed limit. Where the stretch comes near
   // either, it is integrated in small steps like the plant's own valve, which saturates inside the step.
-  const double y0 = y_, yd0 = y_dot_;
+  const double y0 = y_, yd0 = y_dot_, integral0 = integral_;
   propagateLinear(h, u);
   const double vmax = parameters_.max_spool_velocity;
   const bool saturates = std::abs(y_) >= 1.0 || std::abs(y_dot_) > vmax ||
@@ -134,6 +141,7 @@ void ServoValve::propagateExactly(double h, double u) {
   if (!saturates) return;
   y_ = y0;
   y_dot_ = yd0;
+  integral_ = integral0;
   for (double done = 0.0; done < h;) {
     const double step = std::min(max_step_, h - done);
     integrate(step, u);

@@ -24,6 +24,7 @@ void ValveMessageSpool::process(StreamSample* valve) {
   const double dt = valve->stamp - last_stamp_;
   const bool measured = std::isfinite(valve->second);
   double modelled = 0.0;
+  double mean = std::numeric_limits<double>::quiet_NaN();  // over the stretch since the last message
   if (running_ && dt <= 0.0 && dt >= -max_gap_) {
     modelled = model_.position();  // a duplicate or slightly late message: the resampler rejects it
   } else if (!running_ || !(dt > 0.0 && dt <= max_gap_)) {
@@ -33,7 +34,9 @@ void ValveMessageSpool::process(StreamSample* valve) {
     running_ = true;
     modelled = model_.position();
   } else {
+    const double integral = model_.integral();
     modelled = model_.advance(dt, last_voltage_);  // the previous voltage was in force until now
+    mean = (model_.integral() - integral) / dt;
   }
   if (measured) {
     last_measured_ = valve->second;
@@ -41,7 +44,10 @@ void ValveMessageSpool::process(StreamSample* valve) {
     valve->second = modelled;
     ++predicted_;
   }
-  if (drives_free_run_) valve->third = modelled;
+  if (drives_free_run_) {
+    valve->third = modelled;
+    valve->third_mean = mean;
+  }
   if (dt > 0.0 || dt < -max_gap_) {
     last_stamp_ = valve->stamp;
     last_voltage_ = valve->first;

@@ -5,11 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <boost/numeric/odeint.hpp>
-
 #include <cmath>
 #include <vector>
 
 #include "die_cushion_ident/core/fits/free_run_pressure.h"
+#include "die_cushion_ident/core/valve/servo_valve.h"
 
 using namespace die_cushion_ident;
 
@@ -167,4 +167,84 @@ TEST(FreeRunPressure, RestartsFromTheGivenPressure) {
   a.t = 0.002;
   EXPECT_TRUE(std::isfinite(free_run.step(a, s.theta)));
   EXPECT_FALSE(free_run.anchoredThisStep());
+}
+
+// The valve model's spool answers each 1 kHz command after its dead time, inside a grid interval, with a kink
+// in its curvature that no cubic through the grid samples follows. With the model's exact mean over each
+// interval (GridSample::y_model_mean) the free run's spool keeps its integral, and the free run follows a
+// reference run on the exact spool a hundred times more closely than through the samples alone; on a clean
+// fast press the curve alone had left the refined bulk modulus 1.4-1.8 % low (doc/resolution.md).
+TEST(FreeRunPressure, TheSpoolBetweenSamplesKeepsTheValveModelsMean) {
+  const Scenario c = kFastPress;
+  const Chamber s = chamberFor(c);
+  ServoValveParameters valve;
+  valve.natural_frequency = 180.0;
+  valve.dead_time = 7.5e-4;  // the delayed switches fall inside the intervals
+  // The exact spool every 10 us for commands held 1 ms each, swinging as a controller's at an impact.
+  constexpr double kFine = 1e-5;
+  constexpr int kPerMessage = 100;
+  const auto command = [](int k) {
+    return 2.0 + 1.0 * std::sin(2.0 * M_PI * 40.0 * 1e-3 * k) + (k % 5 == 0 ? 0.5 : 0.0);
+  };
+  ServoValve spool = ServoValve::exact(valve);
+  spool.reset(0.1 * command(0));
+  std::vector<double> y{spool.position()};
+  for (int k = 0; k < 200; ++k) {
+    for (int i = 0; i < kPerMessage; ++i)
+      y.push_back(spool.advance(kFine, i == 0 ? command(k) : std::nan("")));
+  }
+  const auto spoolAt = [&](double t) {
+    const double f = t / kFine;
+    const std::size_t i = std::min(static_cast<std::size_t>(f), y.size() - 2);
+    return y[i] + (f - static_cast<double>(i)) * (y[i + 1] - y[i]);
+  };
+  // The reference: the same ODE with the exact spool, from the steady pressure of the first command.
+  const auto rate = [&](const double& p, double& dp, double t) {
+    HydraulicSignals in;
+    in.t = t;
+    in.p = p;
+    in.x = c.position(t);
+    in.v = c.velocity(t);
+    in.y = spoolAt(t);
+    in.V = s.model.chamberVolume(in.x, c.dead_volume);
+    dp = s.model.pressureRate(in, s.theta);
+  };
+  namespace ode = boost::numeric::odeint;
+  double p = std::pow(c.area * c.v0 / (c.flow_gain * y[0]), 2);
+  std::vector<double> truth{p};
+  for (int k = 1; k <= 199; ++k) {
+    ode::integrate_adaptive(ode::make_controlled(1e-10, 1e-10, ode::runge_kutta_dopri5<double>()), rate, p,
+                            (k - 1) * 1e-3, k * 1e-3, 1e-6);
+    truth.push_back(p);
+  }
+  const auto freeRunError = [&](bool with_mean) {
+    std::vector<GridSample> grid;
+    for (int k = 0; k <= 199; ++k) {
+      GridSample g;
+      g.t = k * 1e-3;
+      g.x = static_cast<float>(c.position(g.t));
+      g.v = static_cast<float>(c.velocity(g.t));
+      g.y = g.y_model = static_cast<float>(y[k * kPerMessage]);
+      if (with_mean && k > 0) {
+        double sum = 0.0;
+        for (int i = (k - 1) * kPerMessage; i < k * kPerMessage; ++i) sum += 0.5 * (y[i] + y[i + 1]);
+        g.y_model_mean = static_cast<float>(sum / kPerMessage);
+      }
+      g.u = 0.0f;
+      g.p = static_cast<float>(truth[k]);
+      grid.push_back(g);
+    }
+    FreeRunPressure free_run(s.model, 1e5, 1e-3);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+      const double d =
+          free_run.step(grid[i], s.theta, i + 1 < grid.size() ? &grid[i + 1] : nullptr) - truth[i];
+      sum += d * d;
+    }
+    return std::sqrt(sum / static_cast<double>(grid.size()));
+  };
+  const double with_mean = freeRunError(true), through_samples = freeRunError(false);
+  // Measured: 67 Pa against 6644 Pa.
+  EXPECT_LT(with_mean, 0.05 * through_samples) << with_mean << " Pa against " << through_samples << " Pa";
+  EXPECT_LT(with_mean, 0.02 * 0.2e5) << "Pa: a fiftieth of 0.2 bar of noise";
 }

@@ -25,7 +25,8 @@ struct CatmullRomCubic {
 ///   dp/dt = f(t, p) = (A v(t) - Q_v(y(t), p) - Q_extra(p, ...)) / C(p, x(t))
 ///
 /// integrated over time, driven only by the measured position x, velocity v and the spool y (the valve
-/// model's, GridSample::y_model, where there is one: it carries none of the spool sensor's noise). This is
+/// model's, GridSample::y_model, where there is one: it carries none of the spool sensor's noise; between
+/// grid samples with its exact mean over the interval, GridSample::y_model_mean). This is
 /// the error a user sees when the model is used for simulation or control design; it accumulates what the
 /// one-step equation error hides.
 ///
@@ -80,6 +81,8 @@ class FreeRunPressure {
     const GridSample* after;
     CatmullRomCubic x, v, y;  ///< position, velocity and spool between a and b
   };
+  static CatmullRomCubic spoolCubic(const GridSample* before, const GridSample* a, const GridSample* b,
+                                    const GridSample* after);
   double rate(const Span& span, double w, double p, const ParameterVector& theta) const;
   void integrate(const Span& span, const ParameterVector& theta);
   /// Dormand-Prince 5(4) from w on; false where it fails (non-finite). Stops early where the chamber is stiff.

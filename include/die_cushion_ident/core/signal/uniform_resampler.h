@@ -22,13 +22,17 @@ struct StreamSample {
   double second = 0.0;
   /// valve only: the valve model's spool for the commands so far (IdentificationPipeline), NaN where none.
   double third = std::numeric_limits<double>::quiet_NaN();
+  /// valve only: the exact mean of the valve model's spool since the previous message (ValveMessageSpool),
+  /// NaN where none: the spool between messages, which a line or a cubic through `third` misses where the
+  /// delayed command switches (doc/equations.md, "The free run's spool between samples").
+  double third_mean = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One sample on the uniform grid. Channels of a stream that was stale or inside a gap are NaN and
 /// `complete` is false; `discontinuity` marks the first sample after the grid was restarted. Streams are
 /// interpolated linearly, except the valve voltage u, which is held from its stamp on (the amplifier holds
-/// it). The channels are stored in single precision (48 bytes a sample instead of 80: an hour of grid is
-/// 86 MB, not 144): its 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the
+/// it). The channels are stored in single precision (56 bytes a sample instead of 104: an hour of grid is
+/// 101 MB, not 187): its 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the
 /// sensors' noise; time stays double (microseconds of a Unix stamp need 16 digits).
 struct GridSample {
   double t = 0.0;
@@ -52,9 +56,14 @@ struct GridSample {
   /// clean fast press 3 bar wrong (doc/equations.md, "The free run's spool"). NaN where there is none: the
   /// free run then takes the measured spool.
   float y_model = std::numeric_limits<float>::quiet_NaN();
+  /// The exact mean of y_model's spool over the grid interval that ends here, [t - T, t]; NaN where none. The
+  /// free run's spool between grid samples keeps it: the spool answers each command after the dead time,
+  /// within the interval, with a kink no curve through the samples alone follows; at a 4 ms impact such a
+  /// curve left the refined capacitance 1-2 % low (doc/equations.md, "The free run's spool between
+  /// samples").
+  float y_model_mean = std::numeric_limits<float>::quiet_NaN();
   /// The oil's temperature [degC] at t (the optional oil temperature topic, OilTemperatureInput, filled in by
-  /// IdentificationPipeline); NaN where none was measured or the topic fell silent. In the struct's padding:
-  /// a sample stays 48 bytes.
+  /// IdentificationPipeline); NaN where none was measured or the topic fell silent.
   float T = std::numeric_limits<float>::quiet_NaN();
   bool complete = true;
   bool discontinuity = false;
@@ -161,9 +170,18 @@ class UniformResampler {
     double supply = std::numeric_limits<double>::quiet_NaN();
   };
   ValveIntervalMeans valveIntervalMeans(double from, double to) const;
+  /// The mean of the valve model's spool over [from, to] from the messages' exact stretch means
+  /// (StreamSample::third_mean); a stretch covered in part by the quadratic through its ends with its mean.
+  /// NaN where a stretch has none or the interval is not covered.
+  double modelSpoolMean(double from, double to) const;
   /// How far past a grid point a stream must have spoken before the point is emitted: the valve half a
   /// sample, for the spool's mean over the interval around the point.
   double lead(int stream) const;
+  /// How far before a grid point a stream's messages are kept: the valve a whole sample, for the model
+  /// spool's mean over the interval that ends at the point.
+  double history(int stream) const;
+  /// Whether a message follows the first one at or after t (the position's cubic needs it).
+  static bool hasMessageAfterBracket(const std::deque<StreamSample>& buffer, double t);
   void updateIntervalStatistics(StreamHealth& h, double interval);
 
   Config config_;

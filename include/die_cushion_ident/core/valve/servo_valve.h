@@ -38,6 +38,9 @@ class ServoValve {
 
   double position() const { return y_; }
   double velocity() const { return y_dot_; }
+  /// [s] the spool's integral over time since reset(), exact for exact() (the closed form of each stretch),
+  /// RK4's quadrature otherwise: a stretch's mean spool is the difference over its length.
+  double integral() const { return integral_; }
   double time() const { return time_; }
   const ServoValveParameters& parameters() const { return parameters_; }
 
@@ -61,6 +64,7 @@ class ServoValve {
   double time_ = 0.0;
   double y_ = 0.0;
   double y_dot_ = 0.0;
+  double integral_ = 0.0;
   std::deque<std::pair<double, double>> commands_;  // (time applied, voltage)
 };
 
