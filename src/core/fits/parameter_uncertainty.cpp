@@ -58,9 +58,16 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
       const double ratio = refined->start_rms / refined->noise;
       if (std::isfinite(ratio)) u.misfit = u.equationError() * std::sqrt(ratio * ratio - 1.0);
     }
+    // Only the part of the two estimators' difference their scatter does not explain bounds a bias: where
+    // the free run is the more efficient estimator of the two, var(eq - free run) = var(eq) - var(free run)
+    // (Hausman 1978). The whole difference counted the equation error's own scatter, which the fast press's
+    // 50 ms windows make several times the free run's, as a bias: its stds were about twice their errors
+    // once the free run's inputs were right (doc/equations.md).
     if (refined_used && k < equation_error.parameters.size() && i < refined->theta.size()) {
       const double difference = refined->theta(i) - equation_error.parameters[k].value;
-      if (std::isfinite(difference)) u.method = std::abs(difference) / std::sqrt(3.0);
+      const double scatter = std::max(0.0, u.equationError() * u.equationError() - u.free_run * u.free_run);
+      if (std::isfinite(difference) && std::isfinite(scatter))
+        u.method = std::sqrt(std::max(0.0, difference * difference - scatter)) / std::sqrt(3.0);
     }
     reported->parameters[k].std = u.combined();
   }

@@ -130,8 +130,16 @@ TEST(ParameterUncertainty, CombinesTheFitsTheCyclesAndTheMethodsParts) {
   ASSERT_EQ(parts.size(), 2u);
   EXPECT_DOUBLE_EQ(parts[0].regression, 3e6);
   EXPECT_DOUBLE_EQ(parts[0].cycles, 4e6);
-  EXPECT_NEAR(parts[0].method, 3e7 / std::sqrt(3.0), 1.0);
-  EXPECT_NEAR(reported.parameters[0].std, std::sqrt(0.5 * (9e12 + 16e12) + 3e14), 1.0);
+  // The difference 3e7 less the pool's own scatter (12.5e12; no free-run std here), as a rectangle's half
+  // width.
+  const double excess = std::sqrt(9e14 - 12.5e12);
+  EXPECT_NEAR(parts[0].method, excess / std::sqrt(3.0), 1.0);
+  EXPECT_NEAR(reported.parameters[0].std, std::sqrt(12.5e12 + excess * excess / 3.0), 1.0);
+  // A difference the pool's scatter explains is no bias: no method part.
+  refined.theta << 1.5e9 + 3e6, 2.0e-3;
+  reported = equation_error;
+  parts = combineUncertainty(equation_error, refined, &jackknife, &reported);
+  EXPECT_DOUBLE_EQ(parts[0].method, 0.0);
   EXPECT_DOUBLE_EQ(parts[1].cycles, 0.0);
   EXPECT_DOUBLE_EQ(reported.parameters[1].std, 1e-5) << "no method part where the refinement did not move it";
 

@@ -23,16 +23,16 @@ namespace die_cushion_ident {
 ///    the pressure noise (the model lacks something, or an input is off), u_pool sqrt(R^2 - 1): the pooled
 ///    std scaled by R (Birge's ratio), since the equation-error stds assume the model holds to the noise
 ///    (0 where the refinement was kept or not tried);
-///  - `method`: where the free run refined the equation-error estimate, |theta_free_run - theta_equation| /
-///    sqrt(3): two estimators, each consistent with the right model, that weigh the inputs' errors
-///    differently (the filtered derivative and its windows against the integrated model's timing); their
-///    difference bounds the bias that neither std sees, taken as a rectangular distribution of that half
-///    width (GUM, type B).
+///  - `method`: where the free run refined the equation-error estimate, the part of their difference d their
+///    own scatter does not explain, sqrt(max(0, d^2 - (u_pool^2 - free_run^2))) / sqrt(3) (Hausman: where the
+///    free run is the efficient estimator, var(d) = u_pool^2 - free_run^2): two estimators, each consistent
+///    with the right model, that weigh the inputs' errors differently (the filtered derivative and its
+///    windows against the integrated model's timing); the excess bounds the bias that neither std sees,
+///    taken as a rectangular distribution of that half width (GUM, type B).
 /// Over 250 recordings of every press class x sensor configuration x effect (scripts/uncertainty_calibration,
-/// seeds 20261125, 20261127 and 20261126) each press class had median |error| / std 0.57-0.78 and 91.9-96.9 %
-/// within 1.96 std (before the valve model's part: the fast press's median 0.33-0.45, its stds too wide where
-/// the inputs are measured). Short of 93 %: a fast press without a spool sensor running the default valve
-/// model, and a position recorded at 500 Hz (doc/equations.md).
+/// seeds 20261125, 20261126 and 20261127) each press class had median |error| / std 0.55-0.77 and 92.1-96.5 %
+/// within 1.96 std. Short of 93 %: a position stamped 10 ms late (its estimated offset is not a part) and a
+/// position recorded at 500 Hz (doc/equations.md).
 struct ParameterUncertainty {
   double regression = 0.0;
   double cycles = 0.0;
