@@ -60,7 +60,11 @@ FreeRunPressure::Span::Span(const GridSample* before_, const GridSample* a_, con
 CatmullRomCubic FreeRunPressure::spoolCubic(const GridSample* before, const GridSample* a,
                                             const GridSample* b, const GridSample* after) {
   CatmullRomCubic cubic = cubicOf(before, a, b, after, [](const GridSample& g) { return spoolOf(g); });
-  if (std::isfinite(a->y_model) && std::isfinite(b->y_model) && std::isfinite(b->y_model_mean)) {
+  // The mean is over one grid period before b: not for a span that is longer (a grid thinned or jumped
+  // without a discontinuity), judged by the span before it.
+  const bool one_period = !before || std::abs((b->t - a->t) - (a->t - before->t)) <= 1e-3 * (b->t - a->t);
+  if (one_period && std::isfinite(a->y_model) && std::isfinite(b->y_model) &&
+      std::isfinite(b->y_model_mean)) {
     const double integral = cubic.a + cubic.ta / 2.0 + cubic.square / 3.0 + cubic.cube / 4.0;
     const double k = 6.0 * (b->y_model_mean - integral);
     cubic.ta += k;

@@ -100,8 +100,12 @@ void ServoValve::integrate(double h, double u) {
   const double v2 = y_dot_ + 0.5 * h * k1v, k2y = speed(v2), k2v = accel(y_ + 0.5 * h * k1y, v2);
   const double v3 = y_dot_ + 0.5 * h * k2v, k3y = speed(v3), k3v = accel(y_ + 0.5 * h * k2y, v3);
   const double v4 = y_dot_ + h * k3v, k4y = speed(v4), k4v = accel(y_ + h * k3y, v4);
-  // The integral as a third state (its rate is y): RK4's weights on the stages' positions.
-  integral_ += h / 6.0 * (y_ + 2.0 * (y_ + 0.5 * h * k1y) + 2.0 * (y_ + 0.5 * h * k2y) + y_ + h * k3y);
+  // The integral as a third state (its rate is y): RK4's weights on the stages' positions, each held at the
+  // mechanical stop as the position is (unclamped, a spool pinned at the stop averaged up to 1.0055).
+  const auto stopped = [](double y) { return std::clamp(y, -1.0, 1.0); };
+  integral_ += h / 6.0 *
+               (stopped(y_) + 2.0 * stopped(y_ + 0.5 * h * k1y) + 2.0 * stopped(y_ + 0.5 * h * k2y) +
+                stopped(y_ + h * k3y));
   y_ += h / 6.0 * (k1y + 2 * k2y + 2 * k3y + k4y);
   y_dot_ = speed(y_dot_ + h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v));
   if (std::abs(y_) >= 1.0) {  // against the mechanical stop

@@ -6,6 +6,7 @@
 
 #include <boost/numeric/odeint.hpp>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include "die_cushion_ident/core/fits/free_run_pressure.h"
@@ -43,27 +44,36 @@ Chamber chamberFor(const Scenario& c) {
   return {HydraulicModel::fromNames(g, {}), theta};
 }
 
-// The reference pressure every 0.25 ms over `duration`, from the steady drawing pressure.
-std::vector<double> reference(const Scenario& c, const Chamber& s, double duration) {
+// The chamber's pressure integrated with the exact inputs (the spool as given) from p, every `step` over
+// `duration`, to the given tolerance.
+std::vector<double> integrated(const Scenario& c, const Chamber& s,
+                               const std::function<double(double)>& spool, double p, double step,
+                               double duration, double tolerance) {
   const auto rate = [&](const double& p, double& dp, double t) {
     HydraulicSignals in;
     in.t = t;
     in.p = p;
     in.x = c.position(t);
     in.v = c.velocity(t);
-    in.y = c.spool(t);
+    in.y = spool(t);
     in.V = s.model.chamberVolume(in.x, c.dead_volume);
     dp = s.model.pressureRate(in, s.theta);
   };
   namespace ode = boost::numeric::odeint;
-  double p = std::pow(c.area * c.v0 / (c.flow_gain * c.y0), 2);
   std::vector<double> out{p};
-  for (int k = 1; k * 0.00025 <= duration + 1e-12; ++k) {
-    ode::integrate_adaptive(ode::make_controlled(1e-12, 1e-12, ode::runge_kutta_dopri5<double>()), rate, p,
-                            (k - 1) * 0.00025, k * 0.00025, 1e-6);
+  for (int k = 1; k * step <= duration + 1e-12; ++k) {
+    ode::integrate_adaptive(ode::make_controlled(tolerance, tolerance, ode::runge_kutta_dopri5<double>()),
+                            rate, p, (k - 1) * step, k * step, 1e-6);
     out.push_back(p);
   }
   return out;
+}
+
+// The reference pressure every 0.25 ms over `duration`, from the steady drawing pressure.
+std::vector<double> reference(const Scenario& c, const Chamber& s, double duration) {
+  return integrated(
+      c, s, [&](double t) { return c.spool(t); }, std::pow(c.area * c.v0 / (c.flow_gain * c.y0), 2), 0.00025,
+      duration, 1e-12);
 }
 
 // RMS of the free run against the reference on a grid of `step` whose samples are the exact inputs.
@@ -199,24 +209,8 @@ TEST(FreeRunPressure, TheSpoolBetweenSamplesKeepsTheValveModelsMean) {
     return y[i] + (f - static_cast<double>(i)) * (y[i + 1] - y[i]);
   };
   // The reference: the same ODE with the exact spool, from the steady pressure of the first command.
-  const auto rate = [&](const double& p, double& dp, double t) {
-    HydraulicSignals in;
-    in.t = t;
-    in.p = p;
-    in.x = c.position(t);
-    in.v = c.velocity(t);
-    in.y = spoolAt(t);
-    in.V = s.model.chamberVolume(in.x, c.dead_volume);
-    dp = s.model.pressureRate(in, s.theta);
-  };
-  namespace ode = boost::numeric::odeint;
-  double p = std::pow(c.area * c.v0 / (c.flow_gain * y[0]), 2);
-  std::vector<double> truth{p};
-  for (int k = 1; k <= 199; ++k) {
-    ode::integrate_adaptive(ode::make_controlled(1e-10, 1e-10, ode::runge_kutta_dopri5<double>()), rate, p,
-                            (k - 1) * 1e-3, k * 1e-3, 1e-6);
-    truth.push_back(p);
-  }
+  const std::vector<double> truth =
+      integrated(c, s, spoolAt, std::pow(c.area * c.v0 / (c.flow_gain * y[0]), 2), 1e-3, 0.199, 1e-10);
   const auto freeRunError = [&](bool with_mean) {
     std::vector<GridSample> grid;
     for (int k = 0; k <= 199; ++k) {
