@@ -24,7 +24,12 @@ UniformResampler::PushResult IdentificationPipeline::push(InputStream stream, co
   if (stream == InputStream::kValve) spool_model_.process(&corrected);
   const auto result = resampler_.push(stream, corrected, &resampled_);
   if (result == UniformResampler::PushResult::kRestarted) {
-    // Finish the old time base's samples before the identifier starts again.
+    // Finish the old time base's samples (those the restart emitted come before the new base's first, which
+    // carries the discontinuity) before the identifier starts again.
+    std::size_t old_base = 0;
+    while (old_base < resampled_.size() && !resampled_[old_base].discontinuity)
+      velocity_.push(resampled_[old_base++], &grid_);
+    resampled_.erase(resampled_.begin(), resampled_.begin() + static_cast<std::ptrdiff_t>(old_base));
     velocity_.flush(&grid_);
     consume();
     identifier_.reset();

@@ -109,7 +109,14 @@ UniformResampler::PushResult UniformResampler::push(InputStream stream, const St
     }
     if (!jumpConfirmed()) return PushResult::kHeld;
     const bool backwards = held_.front().sample.stamp < newest_stamp_;
-    if (backwards) restartGrid();
+    if (backwards) {
+      // The old time base's points that wait only for the position's next message get the chord: a
+      // restart must not lose them.
+      closing_ = true;
+      emitReady(out, false);
+      closing_ = false;
+      restartGrid();
+    }
     std::deque<Held> replay;
     replay.swap(held_);
     if (!backwards) newest_stamp_ = replay.front().sample.stamp;  // a pause: the grid jumps ahead
@@ -373,9 +380,10 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
       const bool reaches = c.has_any && c.buffer.back().stamp >= t + (flushing ? 0.0 : lead(s));
       // The position's cubic waits for the neighbour after the bracket too, unless the stream has fallen
       // silent (then the chord ends it, as at the end of a recording).
-      const bool has_future = reaches && (flushing || s != static_cast<int>(InputStream::kPosition) ||
-                                          hasMessageAfterBracket(c.buffer, t) ||
-                                          newest_stamp_ - c.buffer.back().stamp >= config_.stale_timeout);
+      const bool has_future =
+          reaches && (flushing || closing_ || s != static_cast<int>(InputStream::kPosition) ||
+                      hasMessageAfterBracket(c.buffer, t) ||
+                      newest_stamp_ - c.buffer.back().stamp >= config_.stale_timeout);
       if (has_future) {
         for (const auto& m : c.buffer) {
           if (m.stamp >= t) {

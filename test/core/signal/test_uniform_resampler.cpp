@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -130,8 +131,17 @@ TEST(UniformResampler, ASilentStreamIsReportedStaleAndDoesNotBlockTheOthers) {
 }
 
 TEST(UniformResampler, ABackwardJumpRestartsTheGrid) {
-  UniformResampler r({});
-  auto first = feedLinear(r, 100.0, 101.0, 1000.0);
+  UniformResampler::Config config;
+  config.sample_period = 0.001;
+  UniformResampler r(config);
+  // The position at 500 Hz on the 1 ms grid: the old base's last two points wait for its next message.
+  std::vector<GridSample> first;
+  for (int k = 0; k < 1000; ++k) {
+    const double t = 100.0 + 1e-3 * k;
+    r.push(InputStream::kPressure, {t, 1e6, kNaN}, &first);
+    if (k % 2 == 0) r.push(InputStream::kPosition, {t, 0.1 * t, 0.1}, &first);
+    r.push(InputStream::kValve, {t, 1.0, 0.1}, &first);
+  }
   ASSERT_FALSE(first.empty());
   std::vector<GridSample> out;
   // One message on the new time base is held; the other topics confirm the jump (a bag played again).
@@ -140,10 +150,23 @@ TEST(UniformResampler, ABackwardJumpRestartsTheGrid) {
   EXPECT_EQ(r.push(InputStream::kValve, {10.0, 1.0, kNaN}, &out), UniformResampler::PushResult::kRestarted);
   auto second = feedLinear(r, 10.001, 11.0, 1000.0);
   ASSERT_FALSE(second.empty());
-  const GridSample& restarted = out.empty() ? second.front() : out.front();
-  EXPECT_TRUE(restarted.discontinuity) << "downstream filters must be told to start over";
-  EXPECT_LT(restarted.t, 10.01);
+  // The old base's last points (those that waited for the position's next message) come first.
+  for (const GridSample& g : out) {
+    if (g.t > 50.0) EXPECT_FALSE(g.discontinuity);
+  }
+  out.insert(out.end(), second.begin(), second.end());
+  const auto restarted = std::find_if(out.begin(), out.end(), [](const GridSample& g) { return g.t < 50.0; });
+  ASSERT_NE(restarted, out.end());
+  EXPECT_TRUE(restarted->discontinuity) << "downstream filters must be told to start over";
+  EXPECT_LT(restarted->t, 10.01);
   EXPECT_EQ(r.restarts(), 1u);
+  // Nothing of the old base is lost: its grid reaches the last messages' stamp.
+  double last_old = 0.0;
+  for (const GridSample& g : first) last_old = std::max(last_old, g.t);
+  for (const GridSample& g : out) {
+    if (g.t > 50.0) last_old = std::max(last_old, g.t);
+  }
+  EXPECT_GT(last_old, 100.998 - 1e-6) << "the points that waited for the position's next message";
 }
 
 TEST(UniformResampler, ALongSilenceOfAllStreamsJumpsTheGridInsteadOfFillingIt) {

@@ -192,6 +192,7 @@ class UniformResampler {
   bool started_ = false;
   bool grid_started_ = false;
   bool pending_discontinuity_ = false;
+  bool closing_ = false;         // a restart emits what waits only for the position's next message
   std::int64_t next_index_ = 0;  // grid index of the next sample to emit
   std::uint64_t restarts_ = 0;
   struct Held {
