@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 
@@ -112,9 +113,7 @@ UniformResampler::PushResult UniformResampler::push(InputStream stream, const St
     if (backwards) {
       // The old time base's points that wait only for the position's next message get the chord: a
       // restart must not lose them.
-      closing_ = true;
-      emitReady(out, false);
-      closing_ = false;
+      emitReady(out, Emit::kClosing);
       restartGrid();
     }
     std::deque<Held> replay;
@@ -168,11 +167,11 @@ UniformResampler::PushResult UniformResampler::accept(InputStream stream, const 
   if (!started_) first_stamp_ = stored.stamp;
   newest_stamp_ = started_ ? std::max(newest_stamp_, stored.stamp) : stored.stamp;
   started_ = true;
-  emitReady(out, false);
+  emitReady(out, Emit::kLive);
   return PushResult::kAccepted;
 }
 
-void UniformResampler::flush(std::vector<GridSample>* out) { emitReady(out, true); }
+void UniformResampler::flush(std::vector<GridSample>* out) { emitReady(out, Emit::kFlushing); }
 
 namespace {
 // The cubic Hermite between messages a and b at w in [0, 1], its slopes the secants through the neighbours
@@ -205,9 +204,6 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
       const double w = (t - a.stamp) / (b.stamp - a.stamp);
       // The valve voltage is in force from its stamp on (held by the amplifier), so it is held, not
       // interpolated: interpolation would lead the real command by half a message period.
-      const bool held = stream == static_cast<int>(InputStream::kValve);
-      *first = held ? (t < b.stamp ? a.first : b.first) : a.first + w * (b.first - a.first);
-      *second = a.second + w * (b.second - a.second);  // NaN stays NaN: not measured
       if (stream == static_cast<int>(InputStream::kPosition)) {
         const StreamSample* before =
             i > 0 && a.stamp - buffer[i - 1].stamp <= config_.max_gap ? &buffer[i - 1] : nullptr;
@@ -215,7 +211,11 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
                                         ? &buffer[i + 2]
                                         : nullptr;
         *first = cubicBetween(before, a, b, after, w, &StreamSample::first);
-        *second = cubicBetween(before, a, b, after, w, &StreamSample::second);
+        *second = cubicBetween(before, a, b, after, w, &StreamSample::second);  // NaN stays NaN
+      } else {
+        const bool held = stream == static_cast<int>(InputStream::kValve);
+        *first = held ? (t < b.stamp ? a.first : b.first) : a.first + w * (b.first - a.first);
+        *second = a.second + w * (b.second - a.second);  // NaN stays NaN: not measured
       }
       if (third) *third = a.third + w * (b.third - a.third);
       return true;
@@ -237,71 +237,71 @@ double UniformResampler::lead(int stream) const {
   return stream == static_cast<int>(InputStream::kValve) ? 0.5 * config_.sample_period : 0.0;
 }
 
-bool UniformResampler::hasMessageAfterBracket(const std::deque<StreamSample>& buffer, double t) {
-  for (std::size_t i = 0; i < buffer.size(); ++i) {
-    if (buffer[i].stamp >= t) return i + 1 < buffer.size();
-  }
-  return false;
-}
-
 double UniformResampler::history(int stream) const {
   return stream == static_cast<int>(InputStream::kValve) ? config_.sample_period : 0.0;
 }
 
-double UniformResampler::modelSpoolMean(double from, double to) const {
+template <typename Piece>
+double UniformResampler::overValveStretches(double from, double to, Piece piece) const {
   const auto& buffer = channels_[static_cast<int>(InputStream::kValve)].buffer;
-  double integral = 0.0, covered = 0.0;
+  double covered = 0.0;
   for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
     const StreamSample& a = buffer[i];
     const StreamSample& b = buffer[i + 1];
     const double lo = std::max(a.stamp, from), hi = std::min(b.stamp, to);
     if (!(hi > lo)) continue;
-    const double stretch = b.stamp - a.stamp;
-    if (stretch > config_.max_gap || !std::isfinite(b.third_mean)) return kNaN;
+    if (b.stamp - a.stamp > config_.max_gap || !piece(a, b, lo, hi)) return kNaN;
     covered += hi - lo;
-    if (lo == a.stamp && hi == b.stamp) {
-      integral += b.third_mean * stretch;
-      continue;
-    }
-    // Part of the stretch: the quadratic q(w) = a + (b - a) w + 6 c w (1 - w) through its ends with its mean
-    // (c = mean - (a + b) / 2), integrated from w0 to w1.
-    if (!std::isfinite(a.third) || !std::isfinite(b.third)) return kNaN;
-    const double c = b.third_mean - 0.5 * (a.third + b.third);
-    const double w0 = (lo - a.stamp) / stretch, w1 = (hi - a.stamp) / stretch;
-    const double squares = 0.5 * (w1 * w1 - w0 * w0), cubes = (w1 * w1 * w1 - w0 * w0 * w0) / 3.0;
-    integral += stretch * (a.third * (w1 - w0) + (b.third - a.third) * squares + 6.0 * c * (squares - cubes));
   }
+  return covered;
+}
+
+double UniformResampler::modelSpoolMean(double from, double to) const {
+  double integral = 0.0;
+  const double covered =
+      overValveStretches(from, to, [&](const StreamSample& a, const StreamSample& b, double lo, double hi) {
+        if (!std::isfinite(b.third_mean)) return false;
+        const double stretch = b.stamp - a.stamp;
+        if (lo == a.stamp && hi == b.stamp) {
+          integral += b.third_mean * stretch;
+          return true;
+        }
+        // Part of the stretch: the quadratic q(w) = a + (b - a) w + 6 c w (1 - w) through its ends with its
+        // mean (c = mean - (a + b) / 2), integrated from w0 to w1.
+        if (!std::isfinite(a.third) || !std::isfinite(b.third)) return false;
+        const double c = b.third_mean - 0.5 * (a.third + b.third);
+        const double w0 = (lo - a.stamp) / stretch, w1 = (hi - a.stamp) / stretch;
+        const double squares = 0.5 * (w1 * w1 - w0 * w0), cubes = (w1 * w1 * w1 - w0 * w0 * w0) / 3.0;
+        integral +=
+            stretch * (a.third * (w1 - w0) + (b.third - a.third) * squares + 6.0 * c * (squares - cubes));
+        return true;
+      });
   return covered >= (to - from) * (1.0 - 1e-9) ? integral / covered : kNaN;
 }
 
 UniformResampler::ValveIntervalMeans UniformResampler::valveIntervalMeans(double from, double to) const {
-  const auto& buffer = channels_[static_cast<int>(InputStream::kValve)].buffer;
-  double command = 0.0, positive = 0.0, total = 0.0, covered = 0.0;
+  double command = 0.0, positive = 0.0, total = 0.0;
   bool spool_measured = true;
-  for (std::size_t i = 0; i + 1 < buffer.size(); ++i) {
-    const StreamSample& a = buffer[i];
-    const StreamSample& b = buffer[i + 1];
-    const double lo = std::max(a.stamp, from), hi = std::min(b.stamp, to);
-    if (!(hi > lo)) continue;
-    if (b.stamp - a.stamp > config_.max_gap) return {};
-    const double span = hi - lo;
-    covered += span;
-    command += a.first * span;  // held from its stamp to the next message's
-    if (!std::isfinite(a.second) || !std::isfinite(b.second)) {
-      spool_measured = false;
-      continue;
-    }
-    // The spool along the line through the two messages.
-    const double slope = (b.second - a.second) / (b.stamp - a.stamp);
-    const double y_lo = a.second + slope * (lo - a.stamp), y_hi = a.second + slope * (hi - a.stamp);
-    total += 0.5 * (y_lo + y_hi) * span;
-    if (y_lo >= 0.0 && y_hi >= 0.0) {
-      positive += 0.5 * (y_lo + y_hi) * span;
-    } else if (y_lo > 0.0 || y_hi > 0.0) {  // crosses 0: the triangle on the drain side
-      const double top = std::max(y_lo, y_hi);
-      positive += 0.5 * top * span * top / (top - std::min(y_lo, y_hi));
-    }
-  }
+  const double covered =
+      overValveStretches(from, to, [&](const StreamSample& a, const StreamSample& b, double lo, double hi) {
+        const double span = hi - lo;
+        command += a.first * span;  // held from its stamp to the next message's
+        if (!std::isfinite(a.second) || !std::isfinite(b.second)) {
+          spool_measured = false;
+          return true;
+        }
+        // The spool along the line through the two messages.
+        const double slope = (b.second - a.second) / (b.stamp - a.stamp);
+        const double y_lo = a.second + slope * (lo - a.stamp), y_hi = a.second + slope * (hi - a.stamp);
+        total += 0.5 * (y_lo + y_hi) * span;
+        if (y_lo >= 0.0 && y_hi >= 0.0) {
+          positive += 0.5 * (y_lo + y_hi) * span;
+        } else if (y_lo > 0.0 || y_hi > 0.0) {  // crosses 0: the triangle on the drain side
+          const double top = std::max(y_lo, y_hi);
+          positive += 0.5 * top * span * top / (top - std::min(y_lo, y_hi));
+        }
+        return true;
+      });
   ValveIntervalMeans means;
   if (!(covered > 0.0)) return means;
   means.command = command / covered;
@@ -365,7 +365,8 @@ void UniformResampler::dropMessagesBefore(double t_next) {
   }
 }
 
-void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
+void UniformResampler::emitReady(std::vector<GridSample>* out, Emit mode) {
+  const bool flushing = mode == Emit::kFlushing;
   const double dt = config_.sample_period;
   if (!grid_started_ && !startGrid(flushing)) return;
   for (;;) {
@@ -377,20 +378,17 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, bool flushing) {
     for (int s = 0; s < kInputStreamCount; ++s) {
       const Channel& c = channels_[s];
       StreamHealth& h = health_[s];
+      const auto ahead =
+          std::find_if(c.buffer.begin(), c.buffer.end(), [t](const StreamSample& m) { return m.stamp >= t; });
       const bool reaches = c.has_any && c.buffer.back().stamp >= t + (flushing ? 0.0 : lead(s));
-      // The position's cubic waits for the neighbour after the bracket too, unless the stream has fallen
-      // silent (then the chord ends it, as at the end of a recording).
+      // The position's cubic waits for the neighbour after the bracket too, unless the grid is being closed
+      // or the stream has fallen silent (then the chord ends it, as at the end of a recording).
       const bool has_future =
-          reaches && (flushing || closing_ || s != static_cast<int>(InputStream::kPosition) ||
-                      hasMessageAfterBracket(c.buffer, t) ||
+          reaches && (mode != Emit::kLive || s != static_cast<int>(InputStream::kPosition) ||
+                      std::next(ahead) != c.buffer.end() ||
                       newest_stamp_ - c.buffer.back().stamp >= config_.stale_timeout);
       if (has_future) {
-        for (const auto& m : c.buffer) {
-          if (m.stamp >= t) {
-            resume = std::min(resume, m.stamp);
-            break;
-          }
-        }
+        if (ahead != c.buffer.end()) resume = std::min(resume, ahead->stamp);
         const bool valve = s == static_cast<int>(InputStream::kValve);
         if (interpolate(s, t, &values.first[s], &values.second[s],
                         valve ? &values.modelled_spool : nullptr)) {

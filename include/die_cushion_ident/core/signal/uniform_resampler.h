@@ -147,7 +147,10 @@ class UniformResampler {
   PushResult accept(InputStream stream, const StreamSample& sample, std::vector<GridSample>* out);
   /// True once the held messages confirm a jump of the time base.
   bool jumpConfirmed() const;
-  void emitReady(std::vector<GridSample>* out, bool flushing);
+  /// kLive: as the streams allow; kClosing: the same, but the position's cubic does not wait for a next
+  /// message (a restart ends the time base); kFlushing: the recording's end, whatever the streams cover.
+  enum class Emit { kLive, kClosing, kFlushing };
+  void emitReady(std::vector<GridSample>* out, Emit mode);
   /// Starts the grid at the first point every stream covers (or a silent one is overdue); false: not yet.
   bool startGrid(bool flushing);
   /// Each stream's interpolated (first, second) at a grid point, and the valve model's spool.
@@ -180,8 +183,10 @@ class UniformResampler {
   /// How far before a grid point a stream's messages are kept: the valve a whole sample, for the model
   /// spool's mean over the interval that ends at the point.
   double history(int stream) const;
-  /// Whether a message follows the first one at or after t (the position's cubic needs it).
-  static bool hasMessageAfterBracket(const std::deque<StreamSample>& buffer, double t);
+  /// Calls piece(a, b, lo, hi) on each valve stretch between messages a and b that overlaps [from, to]
+  /// ([lo, hi] the overlap); the time covered, NaN where a stretch is a gap or piece returns false.
+  template <typename Piece>
+  double overValveStretches(double from, double to, Piece piece) const;
   void updateIntervalStatistics(StreamHealth& h, double interval);
 
   Config config_;
@@ -192,7 +197,6 @@ class UniformResampler {
   bool started_ = false;
   bool grid_started_ = false;
   bool pending_discontinuity_ = false;
-  bool closing_ = false;         // a restart emits what waits only for the position's next message
   std::int64_t next_index_ = 0;  // grid index of the next sample to emit
   std::uint64_t restarts_ = 0;
   struct Held {
