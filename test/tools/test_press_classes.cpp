@@ -585,17 +585,19 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
     csv.emplace(csv_path);
     // The estimate, its truth and its std's parts; then what the recording says of its own reconstruction
     // (the free run's error before and after the refinement, the settings' resolution errors, the valve fit).
-    for (const char* column :
-         {"recording", "press", "sensors", "effect", "variation", "seed", "parameter", "truth", "value",
-          "std", "regression", "cycles", "free_run", "misfit", "method", "valve_model", "velocity"})
+    for (const char* column : {"recording", "press", "sensors", "effect", "variation", "seed", "parameter",
+                               "truth", "value", "std", "regression", "cycles", "free_run", "misfit",
+                               "method", "valve_model", "velocity", "clock_offsets"})
       csv->text(column);
-    for (const char* column : {"refined_used",       "free_run_error_before", "free_run_error_after",
-                               "free_run_samples",   "survey_pressure_noise", "noise_rms",
-                               "resolution_error",   "velocity_error",        "position_rate_error",
-                               "valve_rate_error",   "numerical_error",       "free_run_spool",
-                               "velocity_source",    "valve_fit_used",        "valve_fit_residual_rms",
-                               "valve_fit_noise",    "position_delay_shift",  "position_delay_std",
-                               "equation_error_rms", "simulation_error_rms",  "cycles_fitted"})
+    for (const char* column : {"refined_used",         "free_run_error_before", "free_run_error_after",
+                               "free_run_samples",     "survey_pressure_noise", "noise_rms",
+                               "resolution_error",     "velocity_error",        "position_rate_error",
+                               "valve_rate_error",     "numerical_error",       "free_run_spool",
+                               "velocity_source",      "valve_fit_used",        "valve_fit_residual_rms",
+                               "valve_fit_noise",      "position_delay_shift",  "position_delay_std",
+                               "position_delay",       "valve_delay",           "common_fit_std",
+                               "common_prior",         "valve_shift",           "equation_error_rms",
+                               "simulation_error_rms", "cycles_fitted"})
       csv->text(column);
     csv->endLine();
   }
@@ -633,8 +635,8 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
         csv->integer(k).text(c.press).quoted(sensors).text(c.effect).integer(c.variation).integer(c.seed);
         csv->text(name).number(r.truth[name].as<double>()).number(p["value"].as<double>());
         csv->number(p["std"].as<double>());
-        for (const char* part :
-             {"regression", "cycles", "free_run", "misfit", "method", "valve_model", "velocity"})
+        for (const char* part : {"regression", "cycles", "free_run", "misfit", "method", "valve_model",
+                                 "velocity", "clock_offsets"})
           csv->number(parts[part].as<double>());
         // What the recording says of its own reconstruction, empty where the summary has no such value: to
         // scale a part for a reconstructed input's bias offline. `at`: the node at a path of keys, or a null
@@ -678,7 +680,12 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
         csv->number(number({"settings", "valve_from_operation", "residual_rms"}));
         csv->number(number({"settings", "valve_from_operation", "noise"}));
         csv->number(number({"settings", "position_delay_refined_by_free_run", "shift"}));
-        csv->number(number({"settings", "position_delay_refined_by_free_run", "std"}));
+        csv->number(number({"settings", "position_delay_refined_by_free_run", "fit_std"}));
+        csv->number(number({"input", "topic_delays", "position"}));
+        csv->number(number({"input", "topic_delays", "valve"}));
+        csv->number(number({"settings", "position_delay_refined_by_free_run", "common_fit_std"}));
+        csv->number(number({"settings", "position_delay_refined_by_free_run", "common_prior"}));
+        csv->number(number({"settings", "position_delay_refined_by_free_run", "valve_shift"}));
         csv->number(number({"fit", "equation_error_rms"})).number(number({"fit", "simulation_error_rms"}));
         csv->number(number({"fit", "cycles"}));
         csv->endLine();

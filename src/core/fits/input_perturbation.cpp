@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "die_cushion_ident/core/fits/output_error_refinement.h"
 #include "die_cushion_ident/core/signal/velocity_from_position.h"
 
 namespace die_cushion_ident {
@@ -15,7 +16,7 @@ bool changesNothing(const InputPerturbation& p) {
   const auto zero = [](const std::vector<float>& v) {
     return std::all_of(v.begin(), v.end(), [](float x) { return x == 0.0f; });
   };
-  return zero(p.spool) && zero(p.velocity);
+  return zero(p.spool) && zero(p.velocity) && zero(p.pressure);
 }
 
 // A covariance the valve model's part can be made from: finite, every parameter's variance positive.
@@ -41,6 +42,9 @@ std::vector<GridSample> perturbed(const std::vector<GridSample>& grid, std::size
     }
     if (i < perturbation.velocity.size()) {
       g.v = static_cast<float>(g.v + sign * perturbation.velocity[i]);
+    }
+    if (i < perturbation.pressure.size()) {
+      g.p = static_cast<float>(g.p + sign * perturbation.pressure[i]);
     }
   }
   return out;
@@ -156,6 +160,20 @@ InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& gri
   return perturbation;
 }
 
+InputPerturbation commonOffsetPerturbation(const std::vector<GridSample>& grid, std::size_t n, double std) {
+  n = std::min(n, grid.size());
+  InputPerturbation change{"clock_offsets", {}, {}, {}};
+  if (!(std > 0.0) || !std::isfinite(std) || n == 0) return change;
+  const std::vector<GridSample> later = timingShifted(grid, n, 0.0, std);
+  const std::vector<GridSample> earlier = timingShifted(grid, n, 0.0, -std);
+  change.pressure.assign(n, 0.0f);
+  for (std::size_t i = 0; i < n && i < later.size() && i < earlier.size(); ++i) {
+    const double dp = 0.5 * (static_cast<double>(later[i].p) - earlier[i].p);
+    change.pressure[i] = std::isfinite(dp) ? static_cast<float>(dp) : 0.0f;
+  }
+  return change;
+}
+
 std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
                                                          const IdentificationConfig& config,
                                                          const ServoValveParameters& grid_valve,
@@ -164,6 +182,8 @@ std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridS
   std::vector<InputPerturbation> inputs =
       valveModelPerturbations(grid, n, grid_valve, config.valve_covariance);
   if (velocity_derived) inputs.push_back(derivedVelocityPerturbation(grid, n, config.velocityHalfWidth()));
+  if (config.common_delay_std > 0.0)
+    inputs.push_back(commonOffsetPerturbation(grid, n, config.common_delay_std));
   // Each costs two free runs: none for a change of nothing (no model spool on the grid, a measured velocity).
   inputs.erase(std::remove_if(inputs.begin(), inputs.end(), changesNothing), inputs.end());
   return inputs;

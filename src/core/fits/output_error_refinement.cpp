@@ -65,6 +65,24 @@ std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std
   return shifted;
 }
 
+std::vector<GridSample> timingShifted(const std::vector<GridSample>& grid, std::size_t n,
+                                      double position_shift, double pressure_shift) {
+  std::vector<GridSample> shifted = positionShifted(grid, n, position_shift);
+  if (n < 4 || pressure_shift == 0.0) return shifted;
+  const double period = (grid[n - 1].t - grid[0].t) / static_cast<double>(n - 1);
+  const double offset = pressure_shift / period;
+  const long whole = static_cast<long>(std::floor(offset));
+  const double w = offset - static_cast<double>(whole);
+  const auto at = [&](long i) {
+    return &grid[static_cast<std::size_t>(std::clamp(i, 0L, static_cast<long>(n) - 1))];
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const long j = static_cast<long>(i) + whole;
+    shifted[i].p = static_cast<float>(catmullRom(at(j - 1)->p, at(j)->p, at(j + 1)->p, at(j + 2)->p, w));
+  }
+  return shifted;
+}
+
 namespace {
 
 // The free runs already made, by their unknowns. Ceres asks for the residuals at a candidate and, where it
@@ -103,14 +121,16 @@ struct FreeRunError {
   const HydraulicModel* model;
   ParameterVector scale;
   double min_pressure;
-  double shift_scale = 0.0;  // [s] the unit of the position's shift; 0: not an unknown
-  double tolerance = 1.0;    // [Pa] the free run's (OutputErrorOptions::tolerance)
+  double shift_scale = 0.0;           // [s] the unit of the position's shift; 0: not an unknown
+  double pressure_shift_scale = 0.0;  // [s] the unit of the pressure's shift (the shifts' second); 0: none
+  double tolerance = 1.0;             // [Pa] the free run's (OutputErrorOptions::tolerance)
   std::shared_ptr<FreeRunMemo> memo;
 
-  // The unknowns as the memo's key: the parameters in units of their scale, then the shift (if one).
+  int shifts() const { return shift_scale > 0.0 ? (pressure_shift_scale > 0.0 ? 2 : 1) : 0; }
+  // The unknowns as the memo's key: the parameters in units of their scale, then the shifts (if any).
   std::vector<double> key(double const* const* x) const {
     std::vector<double> k(x[0], x[0] + scale.size());
-    if (shift_scale > 0.0) k.push_back(x[1][0]);
+    for (int i = 0; i < shifts(); ++i) k.push_back(x[1][i]);
     return k;
   }
   // Called from several threads at once (the Jacobian's columns): each call runs its own copy of the model,
@@ -126,8 +146,9 @@ struct FreeRunError {
       ParameterVector theta(scale.size());
       for (Eigen::Index i = 0; i < scale.size(); ++i) theta(i) = x[0][i] * scale(i);
       if (shift_scale > 0.0) {
-        freeRunResiduals(positionShifted(*grid, n, (x[1][0] - 1.0) * shift_scale), n, own_model, theta,
-                         min_pressure, tolerance, out, &run.valid);
+        const double pressure_shift = shifts() > 1 ? (x[1][1] - 1.0) * pressure_shift_scale : 0.0;
+        freeRunResiduals(timingShifted(*grid, n, (x[1][0] - 1.0) * shift_scale, pressure_shift), n, own_model,
+                         theta, min_pressure, tolerance, out, &run.valid);
       } else {
         freeRunResiduals(*grid, n, own_model, theta, min_pressure, tolerance, out, &run.valid);
       }
@@ -172,6 +193,7 @@ ParameterVector unknownScales(const ParameterVector& start, const ParameterVecto
 struct Solved {
   ParameterVector theta;
   double position_shift = 0.0;  // [s]
+  double pressure_shift = 0.0;  // [s]
   std::size_t iterations = 0;
   std::optional<FreeRunMemo::Run> run;  // the free run of the solution, where the fit made it
 };
@@ -191,17 +213,19 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   differences.relative_step_size = 1e-4;
   const double position_shift_scale = refine.position_shift_scale;
   const bool shifting = position_shift_scale > 0.0;
-  // The shift in units of position_shift_scale, plus 1: Ceres's relative difference step needs a non-zero start.
-  double shift = 1.0;
+  // The shifts in units of their scales, plus 1: Ceres's relative difference step needs a non-zero start.
+  double shift[2] = {1.0, 1.0};
   const FreeRunError error{&grid,
                            n,
                            &model,
                            scale,
                            min_pressure,
                            shifting ? position_shift_scale : 0.0,
+                           shifting ? refine.pressure_shift_scale : 0.0,
                            refine.tolerance,
                            std::make_shared<FreeRunMemo>()};
-  const double* unknowns[2] = {x.data(), &shift};
+  const int shifts = error.shifts();
+  const double* unknowns[2] = {x.data(), shift};
   bool start_exact = true;
   for (Eigen::Index i = 0; i < k; ++i) start_exact &= x[i] * scale(i) == start(i);
   if (start_exact) {
@@ -210,13 +234,15 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   }
   auto* cost = new ParallelNumericDiffCost<FreeRunError, ceres::FORWARD>(error, differences, refine.jobs);
   cost->AddParameterBlock(static_cast<int>(k));
-  if (shifting) cost->AddParameterBlock(1);
+  if (shifting) cost->AddParameterBlock(shifts);
   cost->SetNumResiduals(static_cast<int>(n));
   ceres::Problem problem;
   if (shifting) {
-    problem.AddResidualBlock(cost, nullptr, x.data(), &shift);
-    problem.SetParameterLowerBound(&shift, 0, 1.0 - kMaxShiftUnits);
-    problem.SetParameterUpperBound(&shift, 0, 1.0 + kMaxShiftUnits);
+    problem.AddResidualBlock(cost, nullptr, x.data(), shift);
+    for (int i = 0; i < shifts; ++i) {
+      problem.SetParameterLowerBound(shift, i, 1.0 - kMaxShiftUnits);
+      problem.SetParameterUpperBound(shift, i, 1.0 + kMaxShiftUnits);
+    }
   } else {
     problem.AddResidualBlock(cost, nullptr, x.data());
   }
@@ -240,7 +266,8 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   Solved solved;
   solved.theta = ParameterVector(k);
   for (Eigen::Index i = 0; i < k; ++i) solved.theta(i) = x[i] * scale(i);
-  solved.position_shift = shifting ? (shift - 1.0) * position_shift_scale : 0.0;
+  solved.position_shift = shifting ? (shift[0] - 1.0) * position_shift_scale : 0.0;
+  solved.pressure_shift = shifts > 1 ? (shift[1] - 1.0) * refine.pressure_shift_scale : 0.0;
   solved.iterations = summary.iterations.size();
   solved.run = error.memo->find(error.key(unknowns));
   return solved;
@@ -273,6 +300,73 @@ void setInputStds(const std::vector<GridSample>& fitted, std::size_t n, const Hy
   }
 }
 
+struct Sandwich {
+  Eigen::MatrixXd bread, covariance;
+  double small_sample = 1.0;  // t_0.975(G - 1) / z_0.975 for G blocks
+};
+
+// (J'J)^-1 S (J'J)^-1 with S from the scores J_t r_t summed over kBlocks blocks of the n samples.
+Sandwich clusterRobustSandwich(const Eigen::MatrixXd& jacobian, const std::vector<double>& r, std::size_t n) {
+  const Eigen::Index k = jacobian.cols();
+  const Eigen::MatrixXd information = jacobian.transpose() * jacobian;
+  const std::size_t block = std::max<std::size_t>(n / kBlocks, 1);
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(k, k);
+  int blocks = 0;
+  for (std::size_t first = 0; first + block <= n; first += block, ++blocks) {
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(k);
+    for (std::size_t s = first; s < first + block; ++s) g += jacobian.row(s).transpose() * r[s];
+    meat += g * g.transpose();
+  }
+  if (blocks > 1) meat *= static_cast<double>(blocks) / (blocks - 1);
+  Sandwich sandwich;
+  const Eigen::LDLT<Eigen::MatrixXd> solver(information);
+  sandwich.bread = solver.solve(Eigen::MatrixXd::Identity(k, k));
+  sandwich.covariance = sandwich.bread * meat * sandwich.bread;
+  // With G blocks the sandwich has G - 1 degrees of freedom (Cameron & Miller 2015): the std scaled by
+  // t_0.975(G - 1) / z_0.975 (1.21 for 8 blocks), so that 1.96 of it is the t interval.
+  if (blocks > 1)
+    sandwich.small_sample =
+        boost::math::quantile(boost::math::students_t(blocks - 1), 0.975) / 1.959963984540054;
+  return sandwich;
+}
+
+// [s] A 10 us step of the position's shift: its free-run change is far above the integrator's tolerance and
+// still linear (the position's cubic moves by a few thousandths of a 2 ms sample).
+constexpr double kShiftStep = 1e-5;
+
+// The shifts' stds where they were unknowns: the sandwich over the parameters' columns and the shifts' (the
+// free run's change as the position, or the pressure, is read kShiftStep later and earlier), so that the
+// parameters' share of the residuals is not counted as the shifts'.
+void setShiftStds(const std::vector<GridSample>& fitted, std::size_t n, const HydraulicModel& model,
+                  const Eigen::MatrixXd& parameter_jacobian, const std::vector<double>& r,
+                  double min_pressure, const OutputErrorOptions& refine, OutputErrorFit& fit) {
+  const Eigen::Index k = parameter_jacobian.cols();
+  const Eigen::Index shifts = refine.pressure_shift_scale > 0.0 ? 2 : 1;
+  Eigen::MatrixXd jacobian(static_cast<Eigen::Index>(n), k + shifts);
+  jacobian.leftCols(k) = parameter_jacobian;
+  std::vector<double> plus(n), minus(n);
+  for (Eigen::Index column = 0; column < shifts; ++column) {
+    const double step = kShiftStep;
+    const auto shiftedBy = [&](double sign) {
+      return column == 0 ? timingShifted(fitted, n, sign * step, 0.0)
+                         : timingShifted(fitted, n, 0.0, sign * step);
+    };
+    freeRunResiduals(shiftedBy(1.0), n, model, fit.theta, min_pressure, refine.tolerance, plus.data());
+    freeRunResiduals(shiftedBy(-1.0), n, model, fit.theta, min_pressure, refine.tolerance, minus.data());
+    for (std::size_t s = 0; s < n; ++s)
+      jacobian(static_cast<Eigen::Index>(s), k + column) = -(plus[s] - minus[s]) / (2.0 * step);
+  }
+  if (!jacobian.allFinite()) return;
+  const Sandwich sandwich = clusterRobustSandwich(jacobian, r, n);
+  const auto stdOf = [&](Eigen::Index i) {
+    const double variance = sandwich.covariance(i, i);
+    return variance > 0.0 && std::isfinite(variance) ? sandwich.small_sample * std::sqrt(variance)
+                                                     : std::numeric_limits<double>::quiet_NaN();
+  };
+  fit.position_shift_std = stdOf(k);
+  if (shifts > 1) fit.pressure_shift_std = stdOf(k + 1);
+}
+
 // The stds: the sandwich (J'J)^-1 S (J'J)^-1 with S from the scores g_t = J_t r_t summed over blocks of
 // the recording treated as independent (cluster-robust): a free run's residuals stay correlated over a
 // whole press cycle (a shut valve carries an error through the hold), and Bartlett weights over 300 ms
@@ -298,30 +392,15 @@ void setClusterRobustStds(const std::vector<GridSample>& fitted, std::size_t n, 
     // r = p - p_hat: d p_hat / d theta = -(dr / d theta)
     for (std::size_t s = 0; s < n; ++s) jacobian(s, i) = -(plus[s] - minus[s]) / (2.0 * h);
   });
-  const Eigen::MatrixXd information = jacobian.transpose() * jacobian;
-  const std::size_t block = std::max<std::size_t>(n / kBlocks, 1);
-  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(k, k);
-  int blocks = 0;
-  for (std::size_t first = 0; first + block <= n; first += block, ++blocks) {
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(k);
-    for (std::size_t s = first; s < first + block; ++s) g += jacobian.row(s).transpose() * r[s];
-    meat += g * g.transpose();
-  }
-  if (blocks > 1) meat *= static_cast<double>(blocks) / (blocks - 1);
-  const Eigen::LDLT<Eigen::MatrixXd> solver(information);
-  const Eigen::MatrixXd bread = solver.solve(Eigen::MatrixXd::Identity(k, k));
-  const Eigen::MatrixXd covariance = bread * meat * bread;
-  // With G blocks the sandwich has G - 1 degrees of freedom (Cameron & Miller 2015): the std scaled by
-  // t_0.975(G - 1) / z_0.975 (1.21 for 8 blocks), so that 1.96 of it is the t interval.
-  const double small_sample =
-      blocks > 1 ? boost::math::quantile(boost::math::students_t(blocks - 1), 0.975) / 1.959963984540054
-                 : 1.0;
+  const Sandwich sandwich = clusterRobustSandwich(jacobian, r, n);
   for (Eigen::Index i = 0; i < k; ++i) {
-    const double variance = covariance(i, i);
-    fit.std(i) =
-        variance > 0.0 && std::isfinite(variance) ? small_sample * std::sqrt(variance) : start_std(i);
+    const double variance = sandwich.covariance(i, i);
+    fit.std(i) = variance > 0.0 && std::isfinite(variance) ? sandwich.small_sample * std::sqrt(variance)
+                                                           : start_std(i);
   }
-  setInputStds(fitted, n, model, bread * jacobian.transpose(), min_pressure, refine, fit);
+  setInputStds(fitted, n, model, sandwich.bread * jacobian.transpose(), min_pressure, refine, fit);
+  if (refine.position_shift_scale > 0.0)
+    setShiftStds(fitted, n, model, jacobian, r, min_pressure, refine, fit);
 }
 
 // Why the refined parameters are not kept (their free-run error `rms`); "" where they are. Kept only where
@@ -384,7 +463,8 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
                                              FreeRunMemo::Run{{}, r, valid});
   const bool shifting = refine.position_shift_scale > 0.0;
   const std::vector<GridSample> shifted =
-      shifting ? positionShifted(grid, n, solved.position_shift) : std::vector<GridSample>();
+      shifting ? timingShifted(grid, n, solved.position_shift, solved.pressure_shift)
+               : std::vector<GridSample>();
   const std::vector<GridSample>& fitted = shifting ? shifted : grid;
   if (solved.run) {
     r = solved.run->residuals;
@@ -398,6 +478,7 @@ OutputErrorFit refineByOutputError(const std::vector<GridSample>& grid, const Hy
   fit.improved = true;
   fit.theta = solved.theta;
   fit.position_shift = solved.position_shift;
+  fit.pressure_shift = solved.pressure_shift;
   fit.rms = rms;
   fit.samples = valid;
   fit.message =

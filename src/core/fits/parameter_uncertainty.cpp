@@ -19,7 +19,7 @@ double ParameterUncertainty::combined() const {
   const double statistical =
       free_run_inputs_known && free_run > 0.0 ? free_run : std::max(equationError(), free_run);
   return std::sqrt(statistical * statistical + misfit * misfit + method * method + valve_model * valve_model +
-                   velocity * velocity);
+                   velocity * velocity + clock_offsets * clock_offsets);
 }
 
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
@@ -46,6 +46,7 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
       };
       u.valve_model = part("valve_model");
       u.velocity = part("velocity");
+      u.clock_offsets = part("clock_offsets");
       u.free_run_inputs_known = free_run_inputs_known;
     }
     if (jackknife && k < jackknife->parameters.size() && std::isfinite(jackknife->parameters[k].std)) {

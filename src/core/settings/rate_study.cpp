@@ -75,17 +75,6 @@ void studyPositionRate(const Messages& messages, const IdentificationConfig& at_
   addRateLimit(finding, remedy, choice.position_rate_error, choice);
 }
 
-namespace {
-
-// Whether the position topic carries the cushion's velocity (a JointState's velocity field).
-bool velocityMeasured(const Messages& messages) {
-  return std::any_of(messages.begin(), messages.end(), [](const auto& message) {
-    return message.first == InputStream::kPosition && std::isfinite(message.second.second);
-  });
-}
-
-}  // namespace
-
 // A velocity derived from the positions (VelocityFromPosition: the least-squares slope over the velocity
 // window) smooths the impact's kink, where the chamber's flow A v changes fastest, whatever the period: the
 // period study keeps one window at every period (the configured one) and does not see it (a clean fast press

@@ -54,34 +54,69 @@ constexpr double kDelayTolerance = 5.0;
 // effect would bend the offset to hide it). The refinement where the offset moved.
 std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, const HydraulicEstimate& fit,
                                                   const std::vector<GridSample>& grid, double period,
-                                                  int jobs, SettingsChoice& choice) {
+                                                  bool inputs_measured, int jobs, SettingsChoice& choice) {
   if (!choice.delays || !choice.delays->valid || fit.updates == 0 || !fit.values().allFinite())
     return std::nullopt;
   constexpr int kPosition = static_cast<int>(InputStream::kPosition);
   const double prior = choice.delays->resolution[kPosition];
   if (!(prior > 0.0)) return std::nullopt;
+  constexpr int kValve = static_cast<int>(InputStream::kValve);
   OutputErrorOptions options;
   options.position_shift_scale = std::max(prior, 1e-4);
+  // Where the offsets were applied, their common part against the pressure is an unknown too: the integral
+  // form pins the position's and the valve's relative offset (within 15 us on simulated presses of every
+  // class) but not their common one, 30-460 us off, which left a fast press's bulk modulus 0.4 % and a large
+  // soft press's dead volume 0.6 % lower than with the offsets known, and no part of the stds carried it.
+  // Where they were not applied (none told from 0) the topics agree, and the common part stays 0. Only where
+  // the free run's inputs are measured as often as the pressure: a velocity derived from the position, a
+  // position slower than the pressure or a spool the configured valve model predicts has a timing of its own,
+  // which the common shift would take up (a fast press with its position at 500 Hz and no velocity: 190 us
+  // off, with a std of 7 us).
+  if (choice.delays_applied && inputs_measured)
+    options.pressure_shift_scale = std::max({choice.delays->resolution[kValve], prior, 1e-4});
   options.kept_up_to_noise = kDelayKeptUpToNoise;
-  // Its std is the floor: the sandwich's (a Jacobian of 2 (k + 1) free runs more) was 20-50 times smaller.
-  options.with_stds = false;
+  // Its resolution as a clock offset is the floor (the model's timing moves it as much); the sandwich's
+  // (a Jacobian of 2 (k + 2) free runs more, 20-50 times smaller) is how well the free run pinned it against
+  // the valve, and says whether it pinned the common offset.
+  options.with_stds = true;
   options.max_samples = kDelaySamples;
   options.tolerance = kDelayTolerance;
   options.jobs = jobs;
   // At a period between the pressure's messages the grid's own second differences see interpolations.
   const double pressure_interval = choice.survey.message_interval[static_cast<int>(InputStream::kPressure)];
   if (gridBetweenMessages(period, pressure_interval)) options.pressure_noise = choice.survey.pressure_noise;
-  const OutputErrorFit refined = refineByOutputError(grid, model, fit.values(), fit.standardDeviations(),
-                                                     choice.config.min_pressure, options);
+  OutputErrorFit refined = refineByOutputError(grid, model, fit.values(), fit.standardDeviations(),
+                                               choice.config.min_pressure, options);
   if (!refined.improved) return std::nullopt;
-  const double shift = refined.position_shift;
+  // The pressure read later is every other topic read earlier: the pressure stays the reference. The common
+  // shift is taken only where the free run pins it: a tenth of its prior and three of its own stds. A fast
+  // press's impact does (its std 1-9 us of a 130-420 us prior, the offsets then within 30 us, not 30-480);
+  // on the slower classes the shift trades with the capacitance and went as far as its bounds, and the
+  // integral form's common offset is kept (the position's shift then aligns it with the valve, as before).
+  const double common = options.pressure_shift_scale;
+  const bool pinned = std::isfinite(refined.pressure_shift_std) &&
+                      refined.pressure_shift_std <= 0.1 * common &&
+                      std::abs(refined.pressure_shift) >= 3.0 * refined.pressure_shift_std;
+  if (!pinned) refined.pressure_shift = 0.0;
+  if (common > 0.0) choice.config.common_delay_std = pinned ? refined.pressure_shift_std : common;
+  const double shift = refined.position_shift - refined.pressure_shift;
   choice.position_delay_shift = shift;
+  choice.pressure_delay_shift = refined.pressure_shift;
+  choice.pressure_delay_std = refined.pressure_shift_std;
+  choice.pressure_delay_prior = options.pressure_shift_scale;
   choice.config.topic_delays[kPosition] += shift;
+  choice.config.topic_delays[kValve] -= refined.pressure_shift;
+  choice.position_delay_std = refined.position_shift_std;
   choice.delays->delays[kPosition] += shift;
+  choice.delays->delays[kValve] -= refined.pressure_shift;
   choice.delays->resolution[kPosition] = kFreeRunOffsetFloor;
   choice.delays->message +=
       formatted(FMT_STRING("; the position's offset refined by the free run by {:+.3f} ms (+-{:.2f} ms)"),
                 1e3 * shift, 1e3 * kFreeRunOffsetFloor);
+  if (refined.pressure_shift != 0.0)
+    choice.delays->message +=
+        formatted(FMT_STRING(", the valve's by {:+.3f} ms (the topics' common offset against the pressure)"),
+                  -1e3 * refined.pressure_shift);
   if (choice.delays->distinguishable()) choice.delays_applied = true;
   return refined;
 }
@@ -96,7 +131,12 @@ FinestFit identifyAndRefineOffset(const Messages& messages, double period, const
   finest.fit = fitOnCycles(finest.level.grid, finest.level.strokes,
                            atPeriod(choice.config, period, finest.shortest_drawing), INT_MIN, INT_MAX);
   const auto refining = std::chrono::steady_clock::now();
-  finest.refined = refinePositionDelay(model, finest.fit, finest.level.grid, period, jobs, choice);
+  const auto& interval = choice.survey.message_interval;
+  const bool inputs_measured = velocityMeasured(messages) && choice.survey.spool_measured &&
+                               interval[static_cast<int>(InputStream::kPosition)] <=
+                                   1.01 * interval[static_cast<int>(InputStream::kPressure)];
+  finest.refined =
+      refinePositionDelay(model, finest.fit, finest.level.grid, period, inputs_measured, jobs, choice);
   choice.seconds_spent_on.clock_offsets += secondsSince(refining);
   return finest;
 }
@@ -118,7 +158,8 @@ void ResolutionStudy::identifyAtTheFinestPeriod(StudyOutcome& outcome) {
   const std::optional<OutputErrorFit>& refined = finest_fit.refined;
   if (refined) {
     Level& finest = levels_.back();
-    finest.grid = positionShifted(finest.grid, finest.grid.size(), *choice_.position_delay_shift);
+    finest.grid =
+        timingShifted(finest.grid, finest.grid.size(), refined->position_shift, refined->pressure_shift);
     finest.strokes = segmentStrokes(finest.grid);
   }
   std::vector<std::string> uncertain;

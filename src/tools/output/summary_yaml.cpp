@@ -47,7 +47,8 @@ void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& 
           << YAML::Value << u.regression << YAML::Key << "cycles" << YAML::Value << u.cycles << YAML::Key
           << "free_run" << YAML::Value << u.free_run << YAML::Key << "misfit" << YAML::Value << u.misfit
           << YAML::Key << "method" << YAML::Value << u.method << YAML::Key << "valve_model" << YAML::Value
-          << u.valve_model << YAML::Key << "velocity" << YAML::Value << u.velocity << YAML::EndMap;
+          << u.valve_model << YAML::Key << "velocity" << YAML::Value << u.velocity << YAML::Key
+          << "clock_offsets" << YAML::Value << u.clock_offsets << YAML::EndMap;
     }
     out << YAML::EndMap;
   }
@@ -152,8 +153,14 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
   if (choice->position_delay_shift && choice->delays) {
     out << YAML::Key << "position_delay_refined_by_free_run" << YAML::Value << YAML::Flow << YAML::BeginMap
         << YAML::Key << "shift" << YAML::Value << *choice->position_delay_shift << YAML::Key << "std"
-        << YAML::Value << choice->delays->resolution[static_cast<int>(InputStream::kPosition)]
-        << YAML::EndMap;
+        << YAML::Value << choice->delays->resolution[static_cast<int>(InputStream::kPosition)] << YAML::Key
+        << "fit_std" << YAML::Value << choice->position_delay_std;
+    if (choice->pressure_delay_prior > 0.0) {
+      out << YAML::Key << "valve_shift" << YAML::Value << -choice->pressure_delay_shift << YAML::Key
+          << "common_fit_std" << YAML::Value << choice->pressure_delay_std << YAML::Key << "common_prior"
+          << YAML::Value << choice->pressure_delay_prior;
+    }
+    out << YAML::EndMap;
   }
   if (std::isfinite(choice->position_rate_error)) {
     out << YAML::Key << "position_rate_error" << YAML::Value << choice->position_rate_error;

@@ -91,6 +91,12 @@ struct IdentificationConfig {
   /// valve); subtracted from the stamps. NaN = not set: analyze_bag estimates it from the data, the node
   /// uses 0. Only differences between topics matter.
   std::array<double, kInputStreamCount> topic_delays = {kUnsetDelay(), kUnsetDelay(), kUnsetDelay()};
+  /// [s] the standard uncertainty of the topics' common clock offset against the pressure where the offsets
+  /// were estimated and applied: the free run's (its sandwich) where it pinned it on the survey, else the
+  /// integral form's resolution; 0 where the offsets were configured or none was applied. Its error shifts
+  /// the measured pressure against every input, and with it the refined parameters
+  /// (ParameterUncertainty::clock_offsets). Not a configuration key.
+  double common_delay_std = 0.0;
   /// [s] largest clock offset between two topics that the estimate from the data looks for.
   double topic_delay_search = 0.05;
   /// [samples] the most grid the offline analysis keeps (48 bytes each): a longer recording's cycle-based

@@ -20,6 +20,7 @@ namespace die_cushion_ident {
 struct InputPerturbation {
   std::string input;  ///< which input's uncertainty: the parts of one input add in quadrature
   std::vector<float> spool, velocity;
+  std::vector<float> pressure;  ///< [Pa] added to the measured pressure
 };
 
 /// The grid's first `n` samples with `perturbation` added `sign` (+1 or -1) times.
@@ -44,10 +45,16 @@ std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSam
 /// about three times it. Empty where the grid is too short.
 InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n, int half_width);
 
+/// The topics' common clock offset against the pressure, known to `std` [s], as a pressure change
+/// ("clock_offsets"): the pressure read `std` later less read `std` earlier, halved (timingShifted). Reading
+/// the pressure later is reading every input earlier.
+InputPerturbation commonOffsetPerturbation(const std::vector<GridSample>& grid, std::size_t n, double std);
+
 /// What drives the free run on the grid's first `n` samples beside the measurements, as perturbations: the
 /// spool of `grid_valve` (the model that made the grid's y_model) where it was fitted to the recording
 /// (`config.valve_covariance`) and a velocity derived from the position (`velocity_derived`) over
-/// `config.velocity_window`; those that change nothing left out.
+/// `config.velocity_window`, and the topics' estimated common clock offset (`config.common_delay_std`); those
+/// that change nothing left out.
 std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
                                                          const IdentificationConfig& config,
                                                          const ServoValveParameters& grid_valve,

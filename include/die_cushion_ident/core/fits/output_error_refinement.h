@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -23,6 +24,13 @@ struct OutputErrorFit {
   /// [s] how much later the position is read where its shift was an unknown (position_shift_scale > 0):
   /// add it to the position topic's delay.
   double position_shift = 0.0;
+  /// [s] its standard uncertainty, with the parameters (and the pressure's shift) as the other unknowns (the
+  /// cluster-robust sandwich over all); NaN where the shift was no unknown or the stds were not computed.
+  double position_shift_std = std::numeric_limits<double>::quiet_NaN();
+  /// [s] how much later the pressure is read where its shift was an unknown too (pressure_shift_scale > 0):
+  /// every other topic's delay less it. Its std likewise.
+  double pressure_shift = 0.0;
+  double pressure_shift_std = std::numeric_limits<double>::quiet_NaN();
   /// Per reconstructed input (OutputErrorOptions::inputs, by InputPerturbation::input), the parameters'
   /// standard uncertainty from that input's: the root sum of squares of (J'J)^-1 J' dr over its
   /// perturbations, dr the free run's change at `theta` (the refit's change to first order). Computed with
@@ -36,6 +44,11 @@ struct OutputErrorFit {
 /// `shift` more, for shifts within a few samples.
 std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std::size_t n, double shift);
 
+/// The first n samples with the position read `position_shift` [s] later and the pressure `pressure_shift`
+/// later (the same interpolation): the pressure's shift is the other topics' delays' less it.
+std::vector<GridSample> timingShifted(const std::vector<GridSample>& grid, std::size_t n,
+                                      double position_shift, double pressure_shift);
+
 /// How refineByOutputError searches and what it keeps.
 struct OutputErrorOptions {
   bool with_stds = true;             ///< compute the refined stds (a Jacobian more)
@@ -47,6 +60,11 @@ struct OutputErrorOptions {
   /// press the free run resolves a clock offset ten times finer than the integral-form delay estimate, whose
   /// 0.08 ms left 6 times the noise (doc/resolution.md).
   double position_shift_scale = 0.0;
+  /// [s] > 0 (with position_shift_scale): the pressure's time shift against all the other topics is an
+  /// unknown too, searched within three of this unit. Where the clock offsets were estimated and applied,
+  /// their common part against the pressure was 30-460 us off on simulated presses (the position's and the
+  /// valve's relative offset within 15 us), which the position's shift alone cannot take up.
+  double pressure_shift_scale = 0.0;
   /// Threads for the Jacobian's columns (0: one per core). 1 where the caller runs fits side by side.
   int jobs = 1;
   /// [Pa] the pressure noise the free run is judged by (IdentificationConfig::grid_pressure_noise); 0: estimated

@@ -9,9 +9,9 @@
 namespace die_cushion_ident {
 
 /// What a reported parameter's standard uncertainty is made of [its unit]:
-/// u = sqrt(s^2 + misfit^2 + method^2 + valve_model^2 + velocity^2), s = free_run where the free run's inputs
-/// are all known, else max(sqrt((regression^2 + cycles^2) / 2), free_run) (doc/equations.md, "What
-/// analyze_bag reports"):
+/// u = sqrt(s^2 + misfit^2 + method^2 + valve_model^2 + velocity^2 + clock_offsets^2), s = free_run where the
+/// free run's inputs are all known, else max(sqrt((regression^2 + cycles^2) / 2), free_run)
+/// (doc/equations.md, "What analyze_bag reports"):
 ///  - `regression`: the equation-error fit's own, its Newey-West sandwich;
 ///  - `cycles`: the delete-a-group jackknife over press cycles (applyCycleJackknife): the cycles are the
 ///    independent units, so the errors' correlation over a stroke and a model error that differs from
@@ -30,9 +30,9 @@ namespace die_cushion_ident {
 ///    windows against the integrated model's timing); the excess bounds the bias that neither std sees,
 ///    taken as a rectangular distribution of that half width (GUM, type B).
 /// Over 250 recordings of every press class x sensor configuration x effect (scripts/uncertainty_calibration,
-/// seeds 20261125, 20261126 and 20261127) each press class had median |error| / std 0.55-0.77 and 92.1-96.5 %
-/// within 1.96 std. Short of 93 %: a position stamped 10 ms late (its estimated offset is not a part) and a
-/// position recorded at 500 Hz (doc/equations.md).
+/// seeds 20261125, 20261126 and 20261127, 2026-11-28 with `clock_offsets`) each press class had median
+/// |error| / std 0.50-0.76 and 92.5-97.2 % within 1.96 std; the fast press's medians 0.50-0.53 (its effect
+/// parameters' method part, doc/equations.md).
 struct ParameterUncertainty {
   double regression = 0.0;
   double cycles = 0.0;
@@ -44,6 +44,10 @@ struct ParameterUncertainty {
   /// spool drives the free run, and a velocity derived from the position (0 where measured).
   double valve_model = 0.0;
   double velocity = 0.0;
+  /// `clock_offsets`: likewise, the topics' common clock offset against the pressure where the offsets were
+  /// estimated and applied (IdentificationConfig::common_delay_std); 0 where they were configured or none
+  /// was applied.
+  double clock_offsets = 0.0;
   /// Every input of the free run is measured or has its uncertainty in valve_model / velocity: the free
   /// run's sandwich alone is then the refined estimate's statistical part. Otherwise (a configured valve
   /// model drives it, or a velocity whose error is not fully propagated) the equation error's pool bounds it

@@ -59,6 +59,14 @@ struct SettingsChoice {
   /// [s] how much the free run moved the position's estimated offset, where it refined it (its std is then
   /// delays->resolution: 0.1 ms, as far off as it came over the press classes).
   std::optional<double> position_delay_shift;
+  /// [s] where the free run refined the topics' common offset against the pressure too (the offsets were
+  /// applied), how much later it read the pressure: the valve's offset moved by minus it, the position's
+  /// shift above includes it.
+  double pressure_delay_shift = 0.0;
+  double position_delay_std =
+      std::numeric_limits<double>::quiet_NaN();  ///< [s] the position shift's sandwich std
+  double pressure_delay_std = std::numeric_limits<double>::quiet_NaN();  ///< [s] its sandwich std
+  double pressure_delay_prior = 0.0;  ///< [s] the common offset's resolution before (its search's unit)
   /// [Pa] the free run's change from the chosen period to half of it: its own resolution error.
   double resolution_error = 0.0;
   /// The configured model's free run did not converge as the period halved (or moved with its own
