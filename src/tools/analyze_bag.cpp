@@ -270,6 +270,10 @@ TopicDelayEstimate estimateClockOffsets(OfflineAnalysis& analysis, std::optional
   TopicDelayEstimate delays = from_survey ? *surveyed : analysis.estimateTopicDelays();
   if (delays.significant(config->resampler.sample_period) && (!from_survey || delays.distinguishable())) {
     config->topic_delays = delays.delays;
+    // Their common offset against the pressure carries its uncertainty into the parameters (clock_offsets).
+    config->common_delay_std = delays.common_std > 0.0
+                                   ? delays.common_std
+                                   : std::max({delays.resolution[1], delays.resolution[2], 1e-4});
     log("position stamps " + milliseconds(delays.delays[1]) + ", valve stamps " + milliseconds(delays.delays[2]) +
         " against pressure: reading again with the stamps corrected");
   }

@@ -594,7 +594,7 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
                                "resolution_error",     "velocity_error",        "position_rate_error",
                                "valve_rate_error",     "numerical_error",       "free_run_spool",
                                "velocity_source",      "valve_fit_used",        "valve_fit_residual_rms",
-                               "valve_fit_noise",      "position_delay_shift",  "position_delay_std",
+                               "valve_fit_noise",      "position_delay_shift",  "position_delay_fit_std",
                                "position_delay",       "valve_delay",           "common_fit_std",
                                "common_prior",         "valve_shift",           "equation_error_rms",
                                "simulation_error_rms", "cycles_fitted"})

@@ -32,14 +32,14 @@ constexpr double kDelayKeptUpToNoise = 4.0;
 // the model's own timing (the valve's dead time, the derived velocity); over the press matrix's late-stamp
 // recordings with the right model it came up to 0.19 ms off (8 cycles), most within 0.06 ms.
 constexpr double kFreeRunOffsetFloor = 1e-4;
-// Grid samples the offset is refined on (from the survey's start): 6 s at 1 ms. 12 000 instead of 20 000 (and
-// no sandwich std) took the settings from 0.42-0.76 s to 0.34-0.45 s with no offset of 24 late-stamp
-// recordings moved by more than 0.007 ms; 6000 took the refinement from 0.05-0.12 s to 0.026-0.07 s, and
-// over 60 late-stamp recordings (4 classes x 3 plants x clean and 4 effects, position 10 ms and valve 5 ms
-// late) no offset moved by more than 0.01 ms (all within 0.19 ms of the truth, as before). 4000 (tried
-// 2026-11-26 for the settings' cost) moved those offsets by at most 0.013 ms, but a clean small stiff press
-// with its position at 500 Hz, which the free run is most sensitive to, then ran 1.89 times the noise
-// (1.54 with 6000): not taken.
+// Grid samples the offset is refined on (from the survey's start): 6 s at 1 ms. 12 000 instead of 20 000
+// (then without the sandwich std, which since 2026-11-28 says whether the common offset is pinned) took the
+// settings from 0.42-0.76 s to 0.34-0.45 s with no offset of 24 late-stamp recordings moved by more than
+// 0.007 ms; 6000 took the refinement from 0.05-0.12 s to 0.026-0.07 s, and over 60 late-stamp recordings (4
+// classes x 3 plants x clean and 4 effects, position 10 ms and valve 5 ms late) no offset moved by more than
+// 0.01 ms (all within 0.19 ms of the truth, as before). 4000 (tried 2026-11-26 for the settings' cost) moved
+// those offsets by at most 0.013 ms, but a clean small stiff press with its position at 500 Hz, which the
+// free run is most sensitive to, then ran 1.89 times the noise (1.54 with 6000): not taken.
 constexpr std::size_t kDelaySamples = 6000;
 // [Pa] the refinement's free-run tolerance; the analysis's own refinement keeps 1 Pa. 5 Pa took a third off
 // the refinement's time and moved the refined offsets by 0.03 us at most (four classes' 8-cycle recordings).
@@ -55,12 +55,16 @@ constexpr double kDelayTolerance = 5.0;
 std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, const HydraulicEstimate& fit,
                                                   const std::vector<GridSample>& grid, double period,
                                                   bool inputs_measured, int jobs, SettingsChoice& choice) {
-  if (!choice.delays || !choice.delays->valid || fit.updates == 0 || !fit.values().allFinite())
-    return std::nullopt;
+  if (!choice.delays || !choice.delays->valid) return std::nullopt;
   constexpr int kPosition = static_cast<int>(InputStream::kPosition);
-  const double prior = choice.delays->resolution[kPosition];
-  if (!(prior > 0.0)) return std::nullopt;
   constexpr int kValve = static_cast<int>(InputStream::kValve);
+  const double prior = choice.delays->resolution[kPosition];
+  // Where the offsets were applied, their common part against the pressure is known to the larger of the two
+  // offsets' resolutions, at least 0.1 ms (the refinement's search unit): the parameters' part clock_offsets,
+  // unless the free run pins it below.
+  const double common = std::max({choice.delays->resolution[kValve], prior, 1e-4});
+  if (choice.delays_applied) choice.config.common_delay_std = choice.delays->common_std = common;
+  if (fit.updates == 0 || !fit.values().allFinite() || !(prior > 0.0)) return std::nullopt;
   OutputErrorOptions options;
   options.position_shift_scale = std::max(prior, 1e-4);
   // Where the offsets were applied, their common part against the pressure is an unknown too: the integral
@@ -72,8 +76,7 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   // position slower than the pressure or a spool the configured valve model predicts has a timing of its own,
   // which the common shift would take up (a fast press with its position at 500 Hz and no velocity: 190 us
   // off, with a std of 7 us).
-  if (choice.delays_applied && inputs_measured)
-    options.pressure_shift_scale = std::max({choice.delays->resolution[kValve], prior, 1e-4});
+  if (choice.delays_applied && inputs_measured) options.pressure_shift_scale = common;
   options.kept_up_to_noise = kDelayKeptUpToNoise;
   // Its resolution as a clock offset is the floor (the model's timing moves it as much); the sandwich's
   // (a Jacobian of 2 (k + 2) free runs more, 20-50 times smaller) is how well the free run pinned it against
@@ -87,23 +90,28 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   if (gridBetweenMessages(period, pressure_interval)) options.pressure_noise = choice.survey.pressure_noise;
   OutputErrorFit refined = refineByOutputError(grid, model, fit.values(), fit.standardDeviations(),
                                                choice.config.min_pressure, options);
-  if (!refined.improved) return std::nullopt;
   // The pressure read later is every other topic read earlier: the pressure stays the reference. The common
-  // shift is taken only where the free run pins it: a tenth of its prior and three of its own stds. A fast
-  // press's impact does (its std 1-9 us of a 130-420 us prior, the offsets then within 30 us, not 30-480);
-  // on the slower classes the shift trades with the capacitance and went as far as its bounds, and the
-  // integral form's common offset is kept (the position's shift then aligns it with the valve, as before).
-  const double common = options.pressure_shift_scale;
-  const bool pinned = std::isfinite(refined.pressure_shift_std) &&
-                      refined.pressure_shift_std <= 0.1 * common &&
-                      std::abs(refined.pressure_shift) >= 3.0 * refined.pressure_shift_std;
-  if (!pinned) refined.pressure_shift = 0.0;
-  if (common > 0.0) choice.config.common_delay_std = pinned ? refined.pressure_shift_std : common;
+  // shift is taken only where the free run pins it, its std within a tenth of the prior. A fast press's
+  // impact does (its std 1-9 us of a 130-420 us prior, the offsets then within 30 us, not 30-480); on the
+  // slower classes the shift trades with the capacitance and went as far as its bounds, and the integral
+  // form's common offset is kept: the position's shift and the parameters refined again without it, as
+  // before.
+  const bool tried = options.pressure_shift_scale > 0.0 && refined.improved;
+  const bool pinned = tried && std::isfinite(refined.pressure_shift_std) &&
+                      refined.pressure_shift_std <= 0.1 * options.pressure_shift_scale;
+  choice.pressure_delay_prior = options.pressure_shift_scale;
+  choice.pressure_delay_std = refined.pressure_shift_std;
+  if (pinned) {
+    choice.config.common_delay_std = choice.delays->common_std = refined.pressure_shift_std;
+  } else if (options.pressure_shift_scale > 0.0) {
+    options.pressure_shift_scale = 0.0;
+    refined = refineByOutputError(grid, model, fit.values(), fit.standardDeviations(),
+                                  choice.config.min_pressure, options);
+  }
+  if (!refined.improved) return std::nullopt;
   const double shift = refined.position_shift - refined.pressure_shift;
   choice.position_delay_shift = shift;
   choice.pressure_delay_shift = refined.pressure_shift;
-  choice.pressure_delay_std = refined.pressure_shift_std;
-  choice.pressure_delay_prior = options.pressure_shift_scale;
   choice.config.topic_delays[kPosition] += shift;
   choice.config.topic_delays[kValve] -= refined.pressure_shift;
   choice.position_delay_std = refined.position_shift_std;
@@ -154,12 +162,15 @@ void ResolutionStudy::identifyAtTheFinestPeriod(StudyOutcome& outcome) {
   choice_.survey.shortest_drawing = shortest_drawing_;
   fit_ = std::move(finest_fit.fit);
   // Where the position's offset was refined by the free run: the finest level's grid read with it, and the
-  // refined parameters (fitted with it) studied.
+  // refined parameters (fitted with it) studied. Where the common offset moved too, the level is read again
+  // with the new offsets, as every coarser level will be: shifted in place it would read the pressure
+  // delta later than they do, and the change from one to the next would hold dp/dt delta.
   const std::optional<OutputErrorFit>& refined = finest_fit.refined;
-  if (refined) {
+  if (refined && refined->pressure_shift != 0.0) {
+    levels_.back() = levelAt(atPeriod(choice_.config, periods_.back(), 0.0), messages_);
+  } else if (refined) {
     Level& finest = levels_.back();
-    finest.grid =
-        timingShifted(finest.grid, finest.grid.size(), refined->position_shift, refined->pressure_shift);
+    finest.grid = positionShifted(finest.grid, finest.grid.size(), refined->position_shift);
     finest.strokes = segmentStrokes(finest.grid);
   }
   std::vector<std::string> uncertain;

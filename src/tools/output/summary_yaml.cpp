@@ -156,7 +156,7 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
         << YAML::Value << choice->delays->resolution[static_cast<int>(InputStream::kPosition)] << YAML::Key
         << "fit_std" << YAML::Value << choice->position_delay_std;
     if (choice->pressure_delay_prior > 0.0) {
-      out << YAML::Key << "valve_shift" << YAML::Value << -choice->pressure_delay_shift << YAML::Key
+      out << YAML::Key << "valve_shift" << YAML::Value << 0.0 - choice->pressure_delay_shift << YAML::Key
           << "common_fit_std" << YAML::Value << choice->pressure_delay_std << YAML::Key << "common_prior"
           << YAML::Value << choice->pressure_delay_prior;
     }

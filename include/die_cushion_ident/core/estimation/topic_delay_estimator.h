@@ -23,6 +23,9 @@ struct TopicDelayEstimate {
   /// [s] the part of resolution[valve] that is the valve model's own timing (addValveModelTiming); 0 where
   /// the spool is measured or the model is the user's.
   double valve_model_timing = 0.0;
+  /// [s] the standard uncertainty of the topics' common offset against the pressure where the survey's free
+  /// run judged it (IdentificationConfig::common_delay_std); 0 where it did not.
+  double common_std = 0.0;
   bool valid = false;  ///< enough excited samples to judge
   int samples = 0;     ///< samples the estimate rests on
   std::string message;  ///< why not valid, in words
