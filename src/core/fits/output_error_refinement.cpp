@@ -6,6 +6,7 @@
 #include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <deque>
+#include <initializer_list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -48,38 +49,76 @@ void freeRunResiduals(const std::vector<GridSample>& grid, std::size_t n, const 
 
 }  // namespace
 
-std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std::size_t n, double shift) {
-  std::vector<GridSample> shifted(grid.begin(), grid.begin() + static_cast<std::ptrdiff_t>(n));
-  if (n < 4) return shifted;
-  const double period = (grid[n - 1].t - grid[0].t) / static_cast<double>(n - 1);
+namespace {
+
+// [s] The grid's period over its first n samples: from its ends, or, where a discontinuity (a gap or a
+// restart of the time base) lies between, the mean of the spacings within its stretches.
+double periodOf(const std::vector<GridSample>& grid, std::size_t n) {
+  double sum = 0.0;
+  std::size_t spacings = 0;
+  bool broken = false;
+  for (std::size_t k = 1; k < n; ++k) {
+    if (grid[k].discontinuity) {
+      broken = true;
+      continue;
+    }
+    sum += grid[k].t - grid[k - 1].t;
+    ++spacings;
+  }
+  if (!broken) return (grid[n - 1].t - grid[0].t) / static_cast<double>(n - 1);
+  return spacings > 0 ? sum / static_cast<double>(spacings) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// The channels `members` of the grid's first n samples read `shift` [s] later into `shifted`: Catmull-Rom
+// between the grid samples around t + shift (the free run's own interpolation). Within each stretch between
+// discontinuities: a sample whose bracket reaches across one, or holds no value, keeps its own (a NaN
+// pressure beside a gap did not widen into its neighbour, nor a restart blend two time bases); a neighbour
+// across one is left out (the cubic takes the secant there).
+void readLater(const std::vector<GridSample>& grid, std::size_t n, double shift,
+               std::initializer_list<float GridSample::*> members, std::vector<GridSample>& shifted) {
+  if (n < 4) return;
+  const double period = periodOf(grid, n);
+  if (!(period > 0.0) || !std::isfinite(shift)) return;
   const double offset = shift / period;
   const long whole = static_cast<long>(std::floor(offset));
   const double w = offset - static_cast<double>(whole);
-  const auto at = [&](long i) { return &grid[static_cast<std::size_t>(std::clamp(i, 0L, static_cast<long>(n) - 1))]; };
+  const long last = static_cast<long>(n) - 1;
+  const auto at = [&](long i) { return &grid[static_cast<std::size_t>(std::clamp(i, 0L, last))]; };
+  // Whether a discontinuity starts a stretch at any sample in (from, to].
+  const auto broken = [&](long from, long to) {
+    for (long k = std::max(from + 1, 1L); k <= std::min(to, last); ++k) {
+      if (grid[static_cast<std::size_t>(k)].discontinuity) return true;
+    }
+    return false;
+  };
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t i = 0; i < n; ++i) {
     const long j = static_cast<long>(i) + whole;
+    if (broken(std::min(static_cast<long>(i), j), std::max(static_cast<long>(i), j + 1))) continue;
     const GridSample *before = at(j - 1), *a = at(j), *b = at(j + 1), *after = at(j + 2);
-    shifted[i].x = static_cast<float>(catmullRom(before->x, a->x, b->x, after->x, w));
-    shifted[i].v = static_cast<float>(catmullRom(before->v, a->v, b->v, after->v, w));
+    const bool with_before = !broken(j - 1, j), with_after = !broken(j + 1, j + 2);
+    for (float GridSample::*member : members) {
+      if (!std::isfinite(a->*member) || !std::isfinite(b->*member)) continue;
+      shifted[i].*member = static_cast<float>(catmullRom(with_before ? before->*member : kNone, a->*member,
+                                                         b->*member, with_after ? after->*member : kNone, w));
+    }
   }
+}
+
+}  // namespace
+
+std::vector<GridSample> positionShifted(const std::vector<GridSample>& grid, std::size_t n, double shift) {
+  n = std::min(n, grid.size());
+  std::vector<GridSample> shifted(grid.begin(), grid.begin() + static_cast<std::ptrdiff_t>(n));
+  readLater(grid, n, shift, {&GridSample::x, &GridSample::v}, shifted);
   return shifted;
 }
 
 std::vector<GridSample> timingShifted(const std::vector<GridSample>& grid, std::size_t n,
                                       double position_shift, double pressure_shift) {
+  n = std::min(n, grid.size());
   std::vector<GridSample> shifted = positionShifted(grid, n, position_shift);
-  if (n < 4 || pressure_shift == 0.0) return shifted;
-  const double period = (grid[n - 1].t - grid[0].t) / static_cast<double>(n - 1);
-  const double offset = pressure_shift / period;
-  const long whole = static_cast<long>(std::floor(offset));
-  const double w = offset - static_cast<double>(whole);
-  const auto at = [&](long i) {
-    return &grid[static_cast<std::size_t>(std::clamp(i, 0L, static_cast<long>(n) - 1))];
-  };
-  for (std::size_t i = 0; i < n; ++i) {
-    const long j = static_cast<long>(i) + whole;
-    shifted[i].p = static_cast<float>(catmullRom(at(j - 1)->p, at(j)->p, at(j + 1)->p, at(j + 2)->p, w));
-  }
+  if (pressure_shift != 0.0) readLater(grid, n, pressure_shift, {&GridSample::p}, shifted);
   return shifted;
 }
 

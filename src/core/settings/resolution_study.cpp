@@ -140,7 +140,11 @@ FinestFit identifyAndRefineOffset(const Messages& messages, double period, const
                            atPeriod(choice.config, period, finest.shortest_drawing), INT_MIN, INT_MAX);
   const auto refining = std::chrono::steady_clock::now();
   const auto& interval = choice.survey.message_interval;
+  // (A valve model the user configured to drive the free run has the user's timing, not the spool's; one
+  // fitted to the operation follows the measured spool.)
+  const bool user_valve_drives = choice.config.valve_model_drives_free_run && !choice.valve_from_operation;
   const bool inputs_measured = velocityMeasured(messages) && choice.survey.spool_measured &&
+                               !user_valve_drives &&
                                interval[static_cast<int>(InputStream::kPosition)] <=
                                    1.01 * interval[static_cast<int>(InputStream::kPressure)];
   finest.refined =

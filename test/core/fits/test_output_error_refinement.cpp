@@ -7,6 +7,8 @@
 #include <climits>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <vector>
 
 #include "../../simulation_fixtures.h"
 #include "die_cushion_ident/core/adequacy/held_out_test.h"
@@ -88,5 +90,45 @@ TEST(OutputErrorRefinement, TheCommonClockOffsetAgainstThePressureIsFoundOnFastP
     std::printf("variation %d: pressure shift %.1f us as recorded, %.1f us read 80 us early (std %.1f us)\n",
                 static_cast<int>(variation), 1e6 * as_recorded.pressure_shift, 1e6 * early.pressure_shift,
                 1e6 * early.pressure_shift_std);
+  }
+}
+
+// A shifted reading stays within each stretch of the grid and loses no sample: beside a NaN pressure (a gap
+// in its messages) and at a restart of the time base (a discontinuity 1 s later) each sample keeps its own
+// value instead of taking the NaN or blending the two stretches, and the period is the stretches' own 1 ms,
+// not the ends' mean over the jump; elsewhere the reading is the Catmull-Rom of a straight line, exact.
+TEST(OutputErrorRefinement, AShiftedReadingKeepsEachStretchAndLosesNoSample) {
+  std::vector<GridSample> grid(40);
+  for (std::size_t k = 0; k < grid.size(); ++k) {
+    GridSample& g = grid[k];
+    const bool second = k >= 20;
+    g.t = 1e-3 * static_cast<double>(k) + (second ? 1.0 : 0.0);
+    g.p = static_cast<float>(1e5 + 1e3 * static_cast<double>(k) + (second ? 5e5 : 0.0));
+    g.x = static_cast<float>(0.1 + 1e-3 * static_cast<double>(k));
+    g.v = 1.0f;
+    g.discontinuity = k == 20;
+  }
+  grid[10].p = std::numeric_limits<float>::quiet_NaN();
+  constexpr double kLater = 0.3e-3;
+  const std::vector<GridSample> shifted = timingShifted(grid, grid.size(), kLater, kLater);
+  ASSERT_EQ(shifted.size(), grid.size());
+  EXPECT_NEAR(shifted[5].p, 1e5 + 1e3 * 5.3, 0.02);
+  EXPECT_NEAR(shifted[5].x, 0.1 + 1e-3 * 5.3, 1e-6);
+  EXPECT_NEAR(shifted[25].p, 6e5 + 1e3 * 25.3, 0.05) << "the period within the stretches";
+  EXPECT_EQ(shifted[9].p, grid[9].p) << "beside the NaN: its own";
+  EXPECT_TRUE(std::isnan(shifted[10].p));
+  EXPECT_NEAR(shifted[11].p, 1e5 + 1e3 * 11.3, 0.02) << "after the NaN (its neighbour left out)";
+  EXPECT_EQ(shifted[19].p, grid[19].p) << "not blended across the restart";
+  EXPECT_EQ(shifted[19].x, grid[19].x);
+  for (const GridSample& g : shifted) {
+    EXPECT_TRUE(std::isfinite(g.x));
+  }
+  // A shift of nothing reads the grid as it is.
+  const std::vector<GridSample> same = timingShifted(grid, grid.size(), 0.0, 0.0);
+  for (std::size_t k = 0; k < grid.size(); ++k) {
+    EXPECT_EQ(same[k].x, grid[k].x);
+    if (std::isfinite(grid[k].p)) {
+      EXPECT_EQ(same[k].p, grid[k].p);
+    }
   }
 }
