@@ -167,7 +167,7 @@ InputPerturbation commonOffsetPerturbation(const std::vector<GridSample>& grid, 
   const std::vector<GridSample> later = timingShifted(grid, n, 0.0, std);
   const std::vector<GridSample> earlier = timingShifted(grid, n, 0.0, -std);
   change.pressure.assign(n, 0.0f);
-  for (std::size_t i = 0; i < n && i < later.size() && i < earlier.size(); ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     const double dp = 0.5 * (static_cast<double>(later[i].p) - earlier[i].p);
     change.pressure[i] = std::isfinite(dp) ? static_cast<float>(dp) : 0.0f;
   }

@@ -78,10 +78,10 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   // off, with a std of 7 us).
   if (choice.delays_applied && inputs_measured) options.pressure_shift_scale = common;
   options.kept_up_to_noise = kDelayKeptUpToNoise;
-  // Its resolution as a clock offset is the floor (the model's timing moves it as much); the sandwich's
-  // (a Jacobian of 2 (k + 2) free runs more, 20-50 times smaller) is how well the free run pinned it against
-  // the valve, and says whether it pinned the common offset.
-  options.with_stds = true;
+  // Its resolution as a clock offset is the floor (the model's timing moves it as much). The sandwich (a
+  // Jacobian of 2 (k + 2) free runs more) is computed only where it decides whether the free run pinned the
+  // common offset: every survey refines the position's, the live node's too.
+  options.with_stds = options.pressure_shift_scale > 0.0;
   options.max_samples = kDelaySamples;
   options.tolerance = kDelayTolerance;
   options.jobs = jobs;
@@ -105,6 +105,7 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
     choice.config.common_delay_std = choice.delays->common_std = refined.pressure_shift_std;
   } else if (options.pressure_shift_scale > 0.0) {
     options.pressure_shift_scale = 0.0;
+    options.with_stds = false;
     refined = refineByOutputError(grid, model, fit.values(), fit.standardDeviations(),
                                   choice.config.min_pressure, options);
   }

@@ -153,12 +153,15 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
   if (choice->position_delay_shift && choice->delays) {
     out << YAML::Key << "position_delay_refined_by_free_run" << YAML::Value << YAML::Flow << YAML::BeginMap
         << YAML::Key << "shift" << YAML::Value << *choice->position_delay_shift << YAML::Key << "std"
-        << YAML::Value << choice->delays->resolution[static_cast<int>(InputStream::kPosition)] << YAML::Key
-        << "fit_std" << YAML::Value << choice->position_delay_std;
+        << YAML::Value << choice->delays->resolution[static_cast<int>(InputStream::kPosition)];
+    // The free run's own stds where it judged the common offset (computed only there).
+    if (std::isfinite(choice->position_delay_std))
+      out << YAML::Key << "fit_std" << YAML::Value << choice->position_delay_std;
     if (choice->pressure_delay_prior > 0.0) {
-      out << YAML::Key << "valve_shift" << YAML::Value << 0.0 - choice->pressure_delay_shift << YAML::Key
-          << "common_fit_std" << YAML::Value << choice->pressure_delay_std << YAML::Key << "common_prior"
-          << YAML::Value << choice->pressure_delay_prior;
+      out << YAML::Key << "valve_shift" << YAML::Value << 0.0 - choice->pressure_delay_shift;
+      if (std::isfinite(choice->pressure_delay_std))
+        out << YAML::Key << "common_fit_std" << YAML::Value << choice->pressure_delay_std;
+      out << YAML::Key << "common_prior" << YAML::Value << choice->pressure_delay_prior;
     }
     out << YAML::EndMap;
   }

@@ -63,9 +63,10 @@ struct SettingsChoice {
   /// applied), how much later it read the pressure: the valve's offset moved by minus it, the position's
   /// shift above includes it.
   double pressure_delay_shift = 0.0;
-  double position_delay_std =
-      std::numeric_limits<double>::quiet_NaN();  ///< [s] the position shift's sandwich std
-  double pressure_delay_std = std::numeric_limits<double>::quiet_NaN();  ///< [s] its sandwich std
+  /// [s] the position's and the common shift's sandwich stds, where the common offset was tried (NaN
+  /// elsewhere).
+  double position_delay_std = std::numeric_limits<double>::quiet_NaN();
+  double pressure_delay_std = std::numeric_limits<double>::quiet_NaN();
   double pressure_delay_prior = 0.0;  ///< [s] the common offset's resolution before (its search's unit)
   /// [Pa] the free run's change from the chosen period to half of it: its own resolution error.
   double resolution_error = 0.0;
