@@ -220,15 +220,28 @@ void FreeRunPressure::integrate(const Span& span, const ParameterVector& theta) 
 }
 
 double FreeRunPressure::step(const GridSample& s, const ParameterVector& theta, const GridSample* next) {
+  // Whether the chamber is above the bar, read where no noise it selects lies (see the class comment): the
+  // sample before, unless that is the anchor a run would start from; then the one before it. Unknown at a
+  // stretch's first samples, which anchor.
+  const bool would_start = anchored_this_step_;
   anchored_this_step_ = false;
-  if (!usable(s) || !usable(previous_) || s.discontinuity || !anchored_ || s.p < min_pressure_ ||
+  if (s.discontinuity || !usable(s))
+    measured_back_[0] = measured_back_[1] = std::numeric_limits<double>::quiet_NaN();
+  const double decides = would_start ? measured_back_[1] : measured_back_[0];
+  measured_back_[1] = measured_back_[0];
+  measured_back_[0] = usable(s) ? s.p : std::numeric_limits<double>::quiet_NaN();
+  if (!usable(s) || !usable(previous_) || s.discontinuity || !anchored_ || !(decides >= min_pressure_) ||
       !(s.t > previous_.t)) {
     have_before_previous_ = false;
     previous_ = s;
     anchored_ = usable(s);
     anchored_this_step_ = anchored_;
-    p_ = std::isfinite(restart_pressure_) ? restart_pressure_ : s.p;
-    restart_pressure_ = std::numeric_limits<double>::quiet_NaN();
+    p_ = s.p;
+    if (std::isfinite(restart_pressure_)) {
+      // A pressure the caller averaged: it decides the next step (not this sample's own noise).
+      p_ = measured_back_[0] = measured_back_[1] = restart_pressure_;
+      restart_pressure_ = std::numeric_limits<double>::quiet_NaN();
+    }
     h_ = 0.0;
     return pressure();
   }

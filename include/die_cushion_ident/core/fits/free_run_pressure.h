@@ -40,7 +40,14 @@ struct CatmullRomCubic {
 ///    weighed: 2.4 us a step on this scalar problem against about 0.1 us here, and the ranking integrates the
 ///    recording some twenty times; ROS2 alone needed 9-17 steps a 1 ms interval for 20 Pa.
 /// The model is re-anchored to the measured pressure where it does not hold (cavitation below
-/// `min_pressure`, a gap or restart of the grid, an incomplete sample) and on resync().
+/// `min_pressure`, a gap or restart of the grid, an incomplete sample) and on resync(). Whether the pressure
+/// is below `min_pressure` is read where no noise it would select lies: neither in the sample whose error
+/// it lets count nor in the anchor the run started from. So a run starts when the sample before its anchor
+/// was above the bar, and goes on while the sample before the current one is. Decided by the current
+/// sample, a run started from the last sample measured below the bar, on a slow crossing the one whose
+/// noise had pulled it down (0.2 bar of noise left entrained air 2.6 % low on small stiff presses, 13 % at
+/// 0.6 bar, about 0 at 0.01 bar; doc/resolution.md "The free run"); decided two samples back throughout, a
+/// run went on only where its anchor was high.
 class FreeRunPressure {
  public:
   /// [Pa] local error allowed per integration step; the default keeps the free run's own error about a
@@ -95,6 +102,10 @@ class FreeRunPressure {
   double tolerance_;
   GridSample before_previous_, previous_;
   bool have_before_previous_ = false;
+  /// [Pa] the measured pressure one and two samples back in this stretch (NaN before it has them): what
+  /// decides whether the chamber is below min_pressure.
+  double measured_back_[2] = {std::numeric_limits<double>::quiet_NaN(),
+                              std::numeric_limits<double>::quiet_NaN()};
   double p_ = 0.0;
   double restart_pressure_ = std::numeric_limits<double>::quiet_NaN();
   double h_ = 0.0;  // [s] the step the error control proposes next
