@@ -47,7 +47,9 @@ struct CatmullRomCubic {
 /// sample, a run started from the last sample measured below the bar, on a slow crossing the one whose
 /// noise had pulled it down (0.2 bar of noise left entrained air 2.6 % low on small stiff presses, 13 % at
 /// 0.6 bar, about 0 at 0.01 bar; doc/resolution.md "The free run"); decided two samples back throughout, a
-/// run went on only where its anchor was high.
+/// run went on only where its anchor was high. This holds where neighbouring grid samples carry independent
+/// noise; where they are interpolated from the same pressure message (a grid between or finer than the
+/// messages) some selection is left, and a restart's pressure (restartAt) both starts and decides its run.
 class FreeRunPressure {
  public:
   /// [Pa] local error allowed per integration step; the default keeps the free run's own error about a
