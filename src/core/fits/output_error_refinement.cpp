@@ -294,7 +294,9 @@ Solved minimiseFreeRunError(const std::vector<GridSample>& grid, std::size_t n, 
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
   options.max_num_iterations = 10;
-  options.function_tolerance = 1e-3;  // a thousandth of the cost: far below what a held-out test resolves
+  options.function_tolerance = refine.function_tolerance > 0.0
+                                   ? refine.function_tolerance
+                                   : 0.1 / static_cast<double>(std::max<std::size_t>(n, 1));
   // With bounds Ceres follows every trust-region step by a projected line search that asks for the gradient,
   // i.e. a whole Jacobian of free runs more at each candidate: 7 Jacobians in 3 iterations instead of 3.
   // The bounds still hold (the step is projected onto them).
