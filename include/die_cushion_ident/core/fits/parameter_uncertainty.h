@@ -30,9 +30,10 @@ namespace die_cushion_ident {
 ///    windows against the integrated model's timing); the excess bounds the bias that neither std sees,
 ///    taken as a rectangular distribution of that half width (GUM, type B).
 /// Over 250 recordings of every press class x sensor configuration x effect (scripts/uncertainty_calibration,
-/// seeds 20261126 and 20261127, 2026-11-28, the free run's anchoring no longer selecting the noise) each
-/// press class had median |error| / std 0.45-0.60 and 95.2-98.0 % within 1.96 std; the fast press's medians
-/// 0.45-0.48 (its effect parameters' method part, doc/equations.md).
+/// seeds 20261125-20261127, 2026-11-28, the free run's anchoring no longer selecting the noise and its
+/// refinement stopping at 0.1 / n of the cost) each press class had median |error| / std 0.44-0.61 and
+/// 94.7-97.6 % within 1.96 std; the fast press's medians 0.44-0.49 (its effect parameters' method part,
+/// doc/equations.md).
 struct ParameterUncertainty {
   double regression = 0.0;
   double cycles = 0.0;
