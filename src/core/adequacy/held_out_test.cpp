@@ -69,8 +69,8 @@ ParameterVector refinedOnTraining(const std::vector<GridSample>& grid,
   OutputErrorOptions without_stds;
   without_stds.with_stds = false;
   without_stds.pressure_noise = config.grid_pressure_noise;
-  without_stds.function_tolerance =
-      1e-3;  // a thousandth of the cost: far below what a held-out test resolves
+  // Stopped at a thousandth of the cost: far below what a held-out test resolves.
+  without_stds.function_tolerance = 1e-3;
   // Only the samples the refinement reads (its first max_samples): on an hour's recording a copy of the
   // whole half per candidate and fold, on both cores, took 130 MB more than the analysis itself.
   const std::size_t first = std::min(range.first, grid.size());
