@@ -26,8 +26,8 @@ namespace {
 const char* kUsage =
     "usage: simulate_bag OUT.bag [--cycles N] [--hours H] [--plant-effects a,b] [--custom-effect NAME=EXPR]\n"
     "                    [--set NAME=VALUE]... [--seed S] [--sweep] [--step-test VOLTAGE] [--epoch SECONDS]\n"
-    "                    [--press CLASS] [--variation N] [--write-config FILE.yaml] [--write-truth "
-    "FILE.yaml]\n"
+    "                    [--press CLASS] [--variation N] [--ram-speed V] [--write-config FILE.yaml] "
+    "[--write-truth FILE.yaml]\n"
     "                    sensor configuration: [--no-velocity] [--no-spool] [--joints a,b,c] [--joint-name "
     "N]\n"
     "                    [--rates P,X,V] [--stamp-offsets P,X,V] [--continuous-command] [--start-offset S]\n"
@@ -38,6 +38,8 @@ const char* kUsage =
     "                         large_soft (0.2 m^2, 20 l); --variation N draws another press of the class\n"
     "                         (0: the class's nominal one); --write-config FILE writes its geometry for\n"
     "                         analyze_bag --config; --write-truth FILE its true parameters (YAML);\n"
+    "  --ram-speed V          the ram's speed [m/s] as it meets the cushion, instead of the class's (a\n"
+    "                         faster crank: the drawing shorter, the impact as long, the flow A V larger);\n"
     "  --sweep appends the default valve sine sweep (10 ... 160 Hz, 0.5 V) with the cushion at rest;\n"
     "  --step-test V then a valve command step of V volts at rest (held 1.5 s), for the pressure's t63.\n"
     "  --effects-from-cycle K the plant effects act only from press cycle K on (0: the first; before it "
@@ -152,6 +154,7 @@ struct Options {
   SimulatorConfig plant;
   PressClass press = PressClass::kSlowHydraulic;
   double variation = 0.0;
+  double ram_speed = 0.0;  // [m/s]; 0: the class's
   std::string config_out, truth_out;
   Recording recording;
   double oil_start = std::numeric_limits<double>::quiet_NaN();  // [degC]; NaN: no temperature
@@ -185,6 +188,7 @@ void addPressOptions(ArgumentParser& arguments, Options& o) {
                 }
               })
       .number("--variation", 0.0, 1e9, &o.variation)
+      .number("--ram-speed", 0.01, 20.0, &o.ram_speed)
       .option("--write-config", [&o](const std::string& v) { o.config_out = v; })
       .option("--write-truth", [&o](const std::string& v) { o.truth_out = v; })
       .option("--plant-effects", [&o](const std::string& v) { o.plant.effects = splitList(v); })
@@ -294,6 +298,7 @@ SimulatorConfig buildPlant(const Options& o) {
     built.oil_temperature.start = o.oil_start;
   }
   for (const auto& [name, value] : o.plant.parameters) built.parameters[name] = value;
+  if (o.ram_speed > 0.0) built.cycle.drawing_speed = o.ram_speed;
   return built;
 }
 
