@@ -9,6 +9,7 @@
 
 #include "die_cushion_ident/core/adequacy/cycle_group_fits.h"
 #include "die_cushion_ident/core/adequacy/effect_onset.h"
+#include "die_cushion_ident/core/adequacy/equation_error_bias.h"
 #include "die_cushion_ident/core/adequacy/formula_proposals.h"
 #include "die_cushion_ident/core/adequacy/held_out_test.h"
 #include "die_cushion_ident/core/adequacy/implausible_parameters.h"
@@ -532,9 +533,14 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
   tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
   HydraulicEstimate jackknife = equation_error;
   const bool resampled = applyCycleJackknife(grid_.grid(), r.strokes, config_, &jackknife, 10, jobs_);
+  std::optional<HydraulicEstimate> of_own_free_run;  // the equation error's own bias at the refined model
+  if (r.output_error && r.output_error->improved)
+    of_own_free_run = equationErrorOfOwnFreeRun(grid_.grid(), r.strokes, config_, model,
+                                                r.output_error->theta, refine.max_samples);
   r.uncertainty =
       combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model,
-                         freeRunInputsKnown(grid_.grid(), refine.max_samples, config_, model, sources));
+                         freeRunInputsKnown(grid_.grid(), refine.max_samples, config_, model, sources),
+                         of_own_free_run ? &*of_own_free_run : nullptr);
   tell("running the model free against the measurement");
   r.assessment = assessModel(grid_.grid(), r.strokes, model, r.model.values(), config_.min_pressure);
   if (r.assessment.samples == 0) {

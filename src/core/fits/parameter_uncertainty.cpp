@@ -25,8 +25,8 @@ double ParameterUncertainty::combined() const {
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
                                                      const std::optional<OutputErrorFit>& refined,
                                                      const HydraulicEstimate* jackknife,
-                                                     HydraulicEstimate* reported,
-                                                     bool free_run_inputs_known) {
+                                                     HydraulicEstimate* reported, bool free_run_inputs_known,
+                                                     const HydraulicEstimate* of_own_free_run) {
   std::vector<ParameterUncertainty> parts(reported->parameters.size());
   const bool refined_used = refined && refined->improved;
   for (std::size_t k = 0; k < parts.size(); ++k) {
@@ -64,8 +64,14 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
     // (Hausman 1978). The whole difference counted the equation error's own scatter, which the fast press's
     // 50 ms windows make several times the free run's, as a bias: its stds were about twice their errors
     // once the free run's inputs were right (doc/equations.md).
+    // The equation error's own bias at the refined model (its filter windows against a fast press's
+    // transients: 3-8 % of the bulk modulus on fast presses, 2-5 times the errors) is no disagreement
+    // between the estimators: measured on the model's own noise-free free run, it is taken out of d.
     if (refined_used && k < equation_error.parameters.size() && i < refined->theta.size()) {
-      const double difference = refined->theta(i) - equation_error.parameters[k].value;
+      const bool own = of_own_free_run && k < of_own_free_run->parameters.size() &&
+                       std::isfinite(of_own_free_run->parameters[k].value);
+      const double difference = (own ? of_own_free_run->parameters[k].value : refined->theta(i)) -
+                                equation_error.parameters[k].value;
       const double scatter = std::max(0.0, u.equationError() * u.equationError() - u.free_run * u.free_run);
       if (std::isfinite(difference) && std::isfinite(scatter))
         u.method = std::sqrt(std::max(0.0, difference * difference - scatter)) / std::sqrt(3.0);

@@ -82,6 +82,24 @@ TEST(ParameterUncertainty, LargerFreeRunStdTakenWholeAndMethodAdded) {
   EXPECT_NEAR(reported.parameters[0].std, std::hypot(6e6, 4e6), 1.0);
 }
 
+// The equation error's own bias at the refined model (its fit to the model's own noise-free free run) is no
+// disagreement of the estimators: a difference it accounts for leaves no method part, and only what is left
+// of the difference beyond it counts.
+TEST(ParameterUncertainty, TheEquationErrorsOwnBiasIsNoMethodPart) {
+  const HydraulicEstimate equation_error = estimate(0.95e9, 3e6);  // 5 % low, as on a fast press
+  const std::optional<OutputErrorFit> refined = freeRun(1e9, 6e6);
+  HydraulicEstimate reported = estimate(1e9, 6e6);
+  const auto whole = combineUncertainty(equation_error, refined, nullptr, &reported);
+  EXPECT_NEAR(whole[0].method, 5e7 / std::sqrt(3.0), 1.0) << "without the own free run's fit: all of d";
+  const HydraulicEstimate own_bias = estimate(0.95e9, 0.0);
+  const auto net = combineUncertainty(equation_error, refined, nullptr, &reported, false, &own_bias);
+  EXPECT_DOUBLE_EQ(net[0].method, 0.0);
+  EXPECT_NEAR(reported.parameters[0].std, 6e6, 1.0);
+  const HydraulicEstimate part_of_it = estimate(0.97e9, 0.0);  // 2e7 of the 5e7 not the equation error's own
+  const auto rest = combineUncertainty(equation_error, refined, nullptr, &reported, false, &part_of_it);
+  EXPECT_NEAR(rest[0].method, 2e7 / std::sqrt(3.0), 1.0);
+}
+
 // A free run more precise than the equation error leaves the pooled std where one of its inputs carries an
 // error no part holds (a configured valve model, a derived velocity: doc/equations.md).
 TEST(ParameterUncertainty, SmallerFreeRunStdLeavesThePool) {

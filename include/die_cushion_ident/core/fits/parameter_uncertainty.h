@@ -28,12 +28,13 @@ namespace die_cushion_ident {
 ///    free run is the efficient estimator, var(d) = u_pool^2 - free_run^2): two estimators, each consistent
 ///    with the right model, that weigh the inputs' errors differently (the filtered derivative and its
 ///    windows against the integrated model's timing); the excess bounds the bias that neither std sees,
-///    taken as a rectangular distribution of that half width (GUM, type B).
+///    taken as a rectangular distribution of that half width (GUM, type B). d is taken against the
+///    equation-error fit to the refined model's own free run where given (equationErrorOfOwnFreeRun): the
+///    equation error's own bias at the model (its filter windows against a fast press's impact) is no
+///    disagreement of the estimators.
 /// Over 250 recordings of every press class x sensor configuration x effect (scripts/uncertainty_calibration,
-/// seeds 20261125-20261127, 2026-11-28, the free run's anchoring no longer selecting the noise and its
-/// refinement stopping at 0.1 / n of the cost) each press class had median |error| / std 0.44-0.61 and
-/// 94.7-97.6 % within 1.96 std; the fast press's medians 0.44-0.49 (its effect parameters' method part,
-/// doc/equations.md).
+/// seeds 20261125-20261127, 2026-12-07) each press class had median |error| / std 0.53-0.74 and 92.1-97.4 %
+/// within 1.96 std; short: the position at 500 Hz (86-89 %, doc/equations.md).
 struct ParameterUncertainty {
   double regression = 0.0;
   double cycles = 0.0;
@@ -62,11 +63,14 @@ struct ParameterUncertainty {
 /// The parts for every parameter of `reported` (model order), and its stds set to their combination.
 /// `equation_error`: the equation-error fit on the whole recording; `refined`: its free-run refinement when
 /// run (its theta is `reported`'s when improved); `jackknife`: the same fit with the cycle jackknife's stds,
-/// or null where the recording has too few cycles.
+/// or null where the recording has too few cycles; `of_own_free_run`: the equation-error fit to the refined
+/// model's own noise-free free run (equationErrorOfOwnFreeRun), or null: where given, the method part reads
+/// the difference from it instead of from the refined theta, so the equation error's own bias is not in it.
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
                                                      const std::optional<OutputErrorFit>& refined,
                                                      const HydraulicEstimate* jackknife,
                                                      HydraulicEstimate* reported,
-                                                     bool free_run_inputs_known = false);
+                                                     bool free_run_inputs_known = false,
+                                                     const HydraulicEstimate* of_own_free_run = nullptr);
 
 }  // namespace die_cushion_ident
