@@ -533,14 +533,13 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
   tell("the parameters' uncertainty: the fit's, the press cycles' (jackknife) and the method's");
   HydraulicEstimate jackknife = equation_error;
   const bool resampled = applyCycleJackknife(grid_.grid(), r.strokes, config_, &jackknife, 10, jobs_);
-  std::optional<HydraulicEstimate> of_own_free_run;  // the equation error's own bias at the refined model
+  std::optional<EquationErrorBias> bias;  // the equation error's own bias at the refined model
   if (r.output_error && r.output_error->improved)
-    of_own_free_run = equationErrorOfOwnFreeRun(grid_.grid(), r.strokes, config_, model,
-                                                r.output_error->theta, refine.max_samples);
-  r.uncertainty =
-      combineUncertainty(equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model,
-                         freeRunInputsKnown(grid_.grid(), refine.max_samples, config_, model, sources),
-                         of_own_free_run ? &*of_own_free_run : nullptr);
+    bias =
+        equationErrorBias(grid_.grid(), r.strokes, config_, model, r.output_error->theta, refine.max_samples);
+  r.uncertainty = combineUncertainty(
+      equation_error, r.output_error, resampled ? &jackknife : nullptr, &r.model,
+      freeRunInputsKnown(grid_.grid(), refine.max_samples, config_, model, sources), bias ? &*bias : nullptr);
   tell("running the model free against the measurement");
   r.assessment = assessModel(grid_.grid(), r.strokes, model, r.model.values(), config_.min_pressure);
   if (r.assessment.samples == 0) {

@@ -26,7 +26,7 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
                                                      const std::optional<OutputErrorFit>& refined,
                                                      const HydraulicEstimate* jackknife,
                                                      HydraulicEstimate* reported, bool free_run_inputs_known,
-                                                     const HydraulicEstimate* of_own_free_run) {
+                                                     const EquationErrorBias* bias) {
   std::vector<ParameterUncertainty> parts(reported->parameters.size());
   const bool refined_used = refined && refined->improved;
   for (std::size_t k = 0; k < parts.size(); ++k) {
@@ -65,14 +65,20 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
     // 50 ms windows make several times the free run's, as a bias: its stds were about twice their errors
     // once the free run's inputs were right (doc/equations.md).
     // The equation error's own bias at the refined model (its filter windows against a fast press's
-    // transients: 3-8 % of the bulk modulus on fast presses, 2-5 times the errors) is no disagreement
-    // between the estimators: measured on the model's own noise-free free run, it is taken out of d.
+    // transients: 2-9 % of the bulk modulus on fast presses, 2-5 times the errors) is no disagreement
+    // between the estimators: its fit to the model's own noise-free free run carries it, and d is taken
+    // against that fit, both over the refinement's samples.
     if (refined_used && k < equation_error.parameters.size() && i < refined->theta.size()) {
-      const bool own = of_own_free_run && k < of_own_free_run->parameters.size() &&
-                       std::isfinite(of_own_free_run->parameters[k].value);
-      const double difference = (own ? of_own_free_run->parameters[k].value : refined->theta(i)) -
-                                equation_error.parameters[k].value;
-      const double scatter = std::max(0.0, u.equationError() * u.equationError() - u.free_run * u.free_run);
+      double difference = refined->theta(i) - equation_error.parameters[k].value, pool = u.equationError();
+      if (bias && k < bias->measured.parameters.size() && k < bias->own_free_run.parameters.size()) {
+        const IdentifiedParameter &measured = bias->measured.parameters[k],
+                                  &own = bias->own_free_run.parameters[k];
+        difference = own.value - measured.value;
+        // Over fewer samples than the whole recording the window's fit scatters more: the pool scaled by it.
+        const double ratio = measured.std / equation_error.parameters[k].std;
+        if (std::isfinite(ratio) && ratio > 1.0) pool *= ratio;
+      }
+      const double scatter = std::max(0.0, pool * pool - u.free_run * u.free_run);
       if (std::isfinite(difference) && std::isfinite(scatter))
         u.method = std::sqrt(std::max(0.0, difference * difference - scatter)) / std::sqrt(3.0);
     }

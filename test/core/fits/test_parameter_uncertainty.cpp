@@ -91,13 +91,25 @@ TEST(ParameterUncertainty, TheEquationErrorsOwnBiasIsNoMethodPart) {
   HydraulicEstimate reported = estimate(1e9, 6e6);
   const auto whole = combineUncertainty(equation_error, refined, nullptr, &reported);
   EXPECT_NEAR(whole[0].method, 5e7 / std::sqrt(3.0), 1.0) << "without the own free run's fit: all of d";
-  const HydraulicEstimate own_bias = estimate(0.95e9, 0.0);
+  const EquationErrorBias own_bias{equation_error, estimate(0.95e9, 0.0)};
   const auto net = combineUncertainty(equation_error, refined, nullptr, &reported, false, &own_bias);
   EXPECT_DOUBLE_EQ(net[0].method, 0.0);
   EXPECT_NEAR(reported.parameters[0].std, 6e6, 1.0);
-  const HydraulicEstimate part_of_it = estimate(0.97e9, 0.0);  // 2e7 of the 5e7 not the equation error's own
+  const EquationErrorBias part_of_it{equation_error, estimate(0.97e9, 0.0)};  // 2e7 not its own
   const auto rest = combineUncertainty(equation_error, refined, nullptr, &reported, false, &part_of_it);
   EXPECT_NEAR(rest[0].method, 2e7 / std::sqrt(3.0), 1.0);
+}
+
+// Fits over fewer samples than the whole recording scatter more: the scatter their difference is allowed is
+// the pool scaled by the window fit's std over the whole fit's (here 2: a pool of 3e6 becomes 6e6, and with a
+// free run of 1e6 the difference's own scatter is sqrt(35) 1e6).
+TEST(ParameterUncertainty, TheWindowsScatterIsItsOwn) {
+  const HydraulicEstimate equation_error = estimate(1e9, 3e6);
+  const std::optional<OutputErrorFit> refined = freeRun(1e9, 1e6);
+  HydraulicEstimate reported = estimate(1e9, 1e6);
+  const EquationErrorBias window{estimate(1.0e9, 6e6), estimate(1.0e9 + 8e6, 0.0)};
+  const auto parts = combineUncertainty(equation_error, refined, nullptr, &reported, true, &window);
+  EXPECT_NEAR(parts[0].method, std::sqrt(64.0 - 35.0) * 1e6 / std::sqrt(3.0), 1.0);
 }
 
 // A free run more precise than the equation error leaves the pooled std where one of its inputs carries an

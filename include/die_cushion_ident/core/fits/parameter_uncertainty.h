@@ -28,10 +28,10 @@ namespace die_cushion_ident {
 ///    free run is the efficient estimator, var(d) = u_pool^2 - free_run^2): two estimators, each consistent
 ///    with the right model, that weigh the inputs' errors differently (the filtered derivative and its
 ///    windows against the integrated model's timing); the excess bounds the bias that neither std sees,
-///    taken as a rectangular distribution of that half width (GUM, type B). d is taken against the
-///    equation-error fit to the refined model's own free run where given (equationErrorOfOwnFreeRun): the
-///    equation error's own bias at the model (its filter windows against a fast press's impact) is no
-///    disagreement of the estimators.
+///    taken as a rectangular distribution of that half width (GUM, type B). Where given, d is the
+///    equation-error fits' difference over the refinement's samples, to the measurement and to the refined
+///    model's own free run (equationErrorBias): the equation error's own bias at the model (its filter
+///    windows against a fast press's impact) is no disagreement of the estimators.
 /// Over 250 recordings of every press class x sensor configuration x effect (scripts/uncertainty_calibration,
 /// seeds 20261125-20261127, 2026-12-07) each press class had median |error| / std 0.53-0.74 and 92.1-97.4 %
 /// within 1.96 std; short: the position at 500 Hz (86-89 %, doc/equations.md).
@@ -60,17 +60,25 @@ struct ParameterUncertainty {
   double combined() const;
 };
 
+/// The equation-error fit over the samples the free run's refinement read, to the measurement and to the
+/// refined model's own noise-free free run (equationErrorBias): what the method part compares.
+struct EquationErrorBias {
+  HydraulicEstimate measured;
+  HydraulicEstimate own_free_run;
+};
+
 /// The parts for every parameter of `reported` (model order), and its stds set to their combination.
 /// `equation_error`: the equation-error fit on the whole recording; `refined`: its free-run refinement when
 /// run (its theta is `reported`'s when improved); `jackknife`: the same fit with the cycle jackknife's stds,
-/// or null where the recording has too few cycles; `of_own_free_run`: the equation-error fit to the refined
-/// model's own noise-free free run (equationErrorOfOwnFreeRun), or null: where given, the method part reads
-/// the difference from it instead of from the refined theta, so the equation error's own bias is not in it.
+/// or null where the recording has too few cycles; `bias`: the equation error over the refinement's samples
+/// (equationErrorBias), or null: where given, the method part reads d as its two fits' difference instead of
+/// the refined theta's from `equation_error`, so that the equation error's own bias is not in it, and the
+/// scatter subtracted is the window's (u_pool scaled by the window fit's std over the whole one's).
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
                                                      const std::optional<OutputErrorFit>& refined,
                                                      const HydraulicEstimate* jackknife,
                                                      HydraulicEstimate* reported,
                                                      bool free_run_inputs_known = false,
-                                                     const HydraulicEstimate* of_own_free_run = nullptr);
+                                                     const EquationErrorBias* bias = nullptr);
 
 }  // namespace die_cushion_ident
