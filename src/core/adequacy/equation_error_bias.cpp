@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <limits>
 
 #include "die_cushion_ident/core/adequacy/held_out_test.h"
-#include "die_cushion_ident/core/fits/free_run_pressure.h"
 
 namespace die_cushion_ident {
 
@@ -19,11 +19,11 @@ std::optional<EquationErrorBias> equationErrorBias(const std::vector<GridSample>
   EquationErrorBias bias;
   // The strokes' ranges reach past the window's end; the fit stops at it.
   bias.measured = fitOnCycles(window, strokes, config, INT_MIN, INT_MAX);
-  // Run over the measured grid (the free run reads the next sample's inputs), written to the window.
-  FreeRunPressure free_run(model, config.min_pressure);
+  // The free run where it runs (NaN where it anchors), in place of each measured pressure.
+  std::vector<float> modelled(window.size(), std::numeric_limits<float>::quiet_NaN());
+  freeRunSquaredErrors(window, 0, window.size(), model, theta, config.min_pressure, nullptr, &modelled);
   for (std::size_t i = 0; i < window.size(); ++i) {
-    const double p = free_run.step(grid[i], theta, i + 1 < grid.size() ? &grid[i + 1] : nullptr);
-    if (std::isfinite(p) && !free_run.anchoredThisStep() && std::isfinite(grid[i].p)) window[i].p = p;
+    if (std::isfinite(modelled[i]) && std::isfinite(window[i].p)) window[i].p = modelled[i];
   }
   bias.own_free_run = fitOnCycles(window, strokes, config, INT_MIN, INT_MAX);
   const auto size = static_cast<std::size_t>(theta.size());

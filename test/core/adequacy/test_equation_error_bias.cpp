@@ -16,12 +16,6 @@ namespace {
 
 namespace fixtures = die_cushion_ident::testing;
 
-ParameterVector trueParameters(const fixtures::Recording& r, const HydraulicModel& model) {
-  ParameterVector truth(model.parameterCount());
-  for (int k = 0; k < model.parameterCount(); ++k) truth(k) = r.truth(model.parameterInfos()[k].name);
-  return truth;
-}
-
 // On the true model, the fit to its own noise-free free run is off from the truth as the fit to the
 // measurement is: within 0.6 of the measured fit's std (measured 0.01-0.4), on three classes and three plants
 // each. On the fast press that bias is the equation error's filter windows against a 3-5 ms impact (bulk
@@ -35,7 +29,7 @@ TEST(EquationErrorBias, TheOwnFreeRunsFitCarriesTheEquationErrorsBias) {
       const IdentificationConfig config = fixtures::configFor(r.plant);
       const HydraulicModel model =
           HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
-      const ParameterVector truth = trueParameters(r, model);
+      const ParameterVector truth = DieCushionSimulator(r.plant).trueParameters();
       const auto bias = equationErrorBias(r.grid, r.strokes, config, model, truth, r.grid.size());
       ASSERT_TRUE(bias.has_value());
       for (int k = 0; k < model.parameterCount(); ++k) {
@@ -64,7 +58,7 @@ TEST(EquationErrorBias, ALongRecordingComparesTheSameSamples) {
     const IdentificationConfig config = fixtures::configFor(r.plant);
     const HydraulicModel model =
         HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
-    const ParameterVector truth = trueParameters(r, model);
+    const ParameterVector truth = DieCushionSimulator(r.plant).trueParameters();
     const HydraulicEstimate whole = fitOnCycles(r.grid, r.strokes, config, INT_MIN, INT_MAX);
     const std::size_t window = r.grid.size() / 3;
     const auto bias = equationErrorBias(r.grid, r.strokes, config, model, truth, window);
@@ -93,7 +87,9 @@ TEST(EquationErrorBias, AWindowAtRestGivesNone) {
   const IdentificationConfig config = fixtures::configFor(r.plant);
   const HydraulicModel model =
       HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
-  EXPECT_FALSE(equationErrorBias(r.grid, r.strokes, config, model, trueParameters(r, model), 60).has_value());
+  EXPECT_FALSE(
+      equationErrorBias(r.grid, r.strokes, config, model, DieCushionSimulator(r.plant).trueParameters(), 60)
+          .has_value());
 }
 
 }  // namespace
