@@ -179,7 +179,13 @@ TEST_F(AnalyzeBag, TheRecordingsOwnValveModelIsUsedNotTheConfiguredOne) {
   const YAML::Node configured = analyze(kWork + "/no_spool.bag", kWork + "/valve_configured", "--config " + wrong);
   const YAML::Node right = analyze(kWork + "/no_spool.bag", kWork + "/valve_right");
   EXPECT_EQ(configured["model"]["valve_model"].as<std::string>(), "configured");
-  EXPECT_GT(same_parameters(configured, right), 1e-3) << "without a measured spool the configured model is the one used";
+  // The wrong valve's timing is taken up by the valve topic's offset (-1.4 ms, 2026-12-07) and the parameters
+  // stay within 0.1 %; its free run shows it (10 % more error, the release phase 2.7 times the noise).
+  EXPECT_GT(same_parameters(configured, right), 2e-4)
+      << "without a measured spool the configured model is the one used";
+  EXPECT_GT(configured["fit"]["simulation_error_rms"].as<double>(),
+            1.05 * right["fit"]["simulation_error_rms"].as<double>())
+      << "the configured model's free run is the worse one";
 }
 
 // --fixed-settings has no survey to fit the valve model to the operation: a configured valve model drives

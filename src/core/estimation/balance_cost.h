@@ -21,10 +21,12 @@ namespace die_cushion_ident::topic_delay_detail {
 // enters only through its increments (a derivative of a noisy pressure put its noise into the regressors and
 // pulled the offset by 0.5 ms on a large soft chamber), and the valve's opening is a piecewise-linear
 // function of the spool with kinks at kKnots, so that a dead band (overlap) fits too: its first-order
-// form left the offset 0.5 ms off.
+// form left the offset 0.5 ms off. The kinks are 1 % of the spool apart up to 7 %: with them at 1, 2, 4 and
+// 7 % an overlap of 4.7 % fell between two, and a fast press's offsets came out -43 and -40 ms where the
+// clocks agreed (and its fit implausible).
 constexpr double kWindow = 0.025;  // [s]
-constexpr double kKnots[] = {0.01, 0.02, 0.04, 0.07};
-constexpr int kKnotCount = 4;
+constexpr double kKnots[] = {0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07};
+constexpr int kKnotCount = 7;
 // 1/K', V_dead/K', air, opening y, the knots' hinges, tank (y / sqrt(p)), leakage (p), a constant flow.
 constexpr int kRegressors = 3 + 1 + kKnotCount + 3;
 // Lags of the rows' residual autocorrelation taken into the uncertainty: a model's misfit repeats over a
