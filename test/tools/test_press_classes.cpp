@@ -210,7 +210,8 @@ TEST_F(PressClasses, EveryLibraryEffectIsFoundOnEveryClassAndItsParameterRight) 
 // A fast press seen through a cell's sensors: the position at 500 Hz among three joints without velocity,
 // stamped 12 ms late, the valve 4 ms late. The position's offset, estimated by the integral form 0.08 ms off
 // (within its stated std), left 6 times the noise and a dead volume 54 % off; refined by the free run it
-// comes to about twice the noise. Nothing is called missing; where the rate limits the analysis it says so.
+// comes to about twice the noise (1.50 times since the free run reads the position's own slope). Nothing is
+// called missing; where the rate limits the analysis it says so.
 TEST_F(PressClasses, AFastPressThroughACellsSlowLateSensorsReadsRight) {
   const Case c{"fast_mechanical", "none",
                "--no-velocity --joints ram,cushion,holder --rates 2000,500,1000 --stamp-offsets 0,0.012,0.004", 4, 1};
@@ -225,8 +226,13 @@ TEST_F(PressClasses, AFastPressThroughACellsSlowLateSensorsReadsRight) {
   EXPECT_EQ(missingVerdicts(a.summary), "") << a.summary["adequacy"]["conclusion"];
   EXPECT_NEAR(offset, 0.012, 1e-4) << "the position's clock offset, refined by the free run";
   EXPECT_LE(error, 3.0 * noise);
-  EXPECT_GT(a.summary["settings"]["position_rate_error"].as<double>(0.0), 0.0)
-      << "the position topic's rate is studied where it is slower than the grid";
+  // Where the grid is finer than the position's 2 ms messages the position's rate is studied (since the free
+  // run reads the position's own slope, the survey chooses the 2 ms grid here: 0.04 bar from halving it).
+  const double period = a.summary["settings"]["sample_period"]["value"].as<double>();
+  if (period < 0.002 / 1.5) {
+    EXPECT_GT(a.summary["settings"]["position_rate_error"].as<double>(0.0), 0.0)
+        << "the position topic's rate is studied where it is slower than the grid";
+  }
   for (const char* parameter : {"bulk_modulus", "dead_volume"}) {
     EXPECT_NEAR(summaryParameter(a.summary, parameter) / r.truth[parameter].as<double>(), 1.0, 0.20) << parameter;
   }
@@ -288,44 +294,41 @@ TEST_F(PressClasses, ATankPressuresStdsAreTheDatas) {
   }
 }
 
-// A velocity derived from the positions (a linear encoder, no velocity in the JointState) smooths the
-// impact's kink, which the period study cannot see: a clean fast press ran 1.3-1.7 times the noise without a
-// velocity, 1.0-1.1 times with one. The survey measures that part (settings.velocity_error, by the free run
-// with the velocity window doubled), names it in resolution_limit, and the conclusion says how much of what
-// is left above the noise it accounts for. Judged against the truth of the same plant and noise recorded with
-// a velocity: the part the derived velocity adds, sqrt(e_derived^2 - e_measured^2), on two press classes.
-TEST_F(PressClasses, ADerivedVelocitysShareOfTheFreeRunIsMeasuredAndNamed) {
+// A velocity derived from the positions (a linear encoder, no velocity in the JointState): the free run reads
+// the position's own slope, so the volume it sweeps is the position's change. When it read the derived
+// samples (least-squares slopes over 2 ms: the impact's compression spread over their neighbours) the
+// refined bulk modulus came out 2.4-4.9 % low on fast presses and 0.6-1.2 % on small stiff ones (4-8 of its
+// stds). The position's noise now enters the free run as the chamber's volume (K A sigma_x / V: a small stiff
+// press ran 1.58 times the noise against 1.10 with a velocity, a fast one 1.31 against 1.03), within what
+// the product calls the noise. On two press classes, against the same plant and noise with a velocity.
+TEST_F(PressClasses, ADerivedVelocityLeavesTheParametersUnbiased) {
   for (const std::string press : {"fast_mechanical", "small_stiff"}) {
     const Case derived{press, "none", "--no-velocity", 0, 1};
     const Case measured{press, "none", "", 0, 1};
     SCOPED_TRACE(derived.name());
-    const Analysis a = analyze(record(derived), kWork + "/" + derived.name());
+    const Recorded r = record(derived);
+    const Analysis a = analyze(r, kWork + "/" + derived.name());
     const Analysis b = analyze(record(measured), kWork + "/" + measured.name());
     ASSERT_EQ(a.status, 0) << a.output;
     ASSERT_EQ(b.status, 0) << b.output;
-    EXPECT_FALSE(b.summary["settings"]["velocity_error"]) << "a measured velocity is not studied";
-    ASSERT_TRUE(a.summary["settings"]["velocity_error"]) << a.output;
     const double noise = a.summary["adequacy"]["noise_rms"].as<double>();
     const double error = a.summary["fit"]["simulation_error_rms"].as<double>();
     const double with_velocity = b.summary["fit"]["simulation_error_rms"].as<double>();
-    const double part = std::sqrt(std::max(error * error - with_velocity * with_velocity, 0.0));
-    const double estimate = a.summary["settings"]["velocity_error"].as<double>();
-    std::printf(
-        "%-40s free run %.2fx noise (%.2fx with a velocity): the derived velocity's part %.2f bar, "
-        "measured %.2f bar\n",
-        derived.name().c_str(), error / noise, with_velocity / noise, 1e-5 * part, 1e-5 * estimate);
-    EXPECT_GT(estimate, 0.5 * part) << "not hidden";
-    EXPECT_LT(estimate, 2.0 * part) << "not overstated: it raises the floor an effect must clear";
+    std::printf("%-40s free run %.2fx noise (%.2fx with a velocity)\n", derived.name().c_str(), error / noise,
+                with_velocity / noise);
+    EXPECT_LT(error, 1.6 * with_velocity);
+    EXPECT_LT(error, 2.0 * noise) << "within the noise, as the conclusion calls it";
+    for (const char* name : {"bulk_modulus", "dead_volume", "valve_flow_gain"}) {
+      const double truth = r.truth[name].as<double>();
+      double std = 0.0;
+      const double value = summaryParameter(a.summary, name, &std);
+      std::printf("  %s %+.2f %% (%.2f stds)\n", name, 100.0 * (value / truth - 1.0), (value - truth) / std);
+      EXPECT_LT(std::abs(value - truth), 3.0 * std) << name;
+      EXPECT_NEAR(value / truth, 1.0, 0.01) << name;
+    }
     EXPECT_EQ(missingVerdicts(a.summary), "") << a.summary["adequacy"]["conclusion"];
-    if (estimate > 0.25 * noise) {
-      EXPECT_NE(a.summary["settings"]["resolution_limit"].as<std::string>("").find("the velocity is derived"),
-                std::string::npos);
-    }
-    const std::string conclusion = a.summary["adequacy"]["conclusion"].as<std::string>();
-    if (error > 2.0 * noise) {
-      EXPECT_NE(conclusion.find("the recording's own resolution accounts for"), std::string::npos)
-          << conclusion;
-    }
+    EXPECT_EQ(a.summary["settings"]["resolution_limit"].as<std::string>("").find("velocity"),
+              std::string::npos);
   }
 }
 
@@ -641,19 +644,19 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
     csv.emplace(csv_path);
     // The estimate, its truth and its std's parts; then what the recording says of its own reconstruction
     // (the free run's error before and after the refinement, the settings' resolution errors, the valve fit).
-    for (const char* column : {"recording", "press", "sensors", "effect", "variation", "seed", "parameter",
-                               "truth", "value", "std", "regression", "cycles", "free_run", "misfit",
-                               "method", "valve_model", "velocity", "clock_offsets"})
+    for (const char* column :
+         {"recording", "press", "sensors", "effect", "variation", "seed", "parameter", "truth", "value",
+          "std", "regression", "cycles", "free_run", "misfit", "method", "valve_model", "clock_offsets"})
       csv->text(column);
-    for (const char* column : {"refined_used",         "free_run_error_before", "free_run_error_after",
-                               "free_run_samples",     "survey_pressure_noise", "noise_rms",
-                               "resolution_error",     "velocity_error",        "position_rate_error",
-                               "valve_rate_error",     "numerical_error",       "free_run_spool",
-                               "velocity_source",      "valve_fit_used",        "valve_fit_residual_rms",
-                               "valve_fit_noise",      "position_delay_shift",  "position_delay_fit_std",
-                               "position_delay",       "valve_delay",           "common_fit_std",
-                               "common_prior",         "valve_shift",           "equation_error_rms",
-                               "simulation_error_rms", "cycles_fitted"})
+    for (const char* column : {"refined_used",         "free_run_error_before",  "free_run_error_after",
+                               "free_run_samples",     "survey_pressure_noise",  "noise_rms",
+                               "resolution_error",     "position_rate_error",    "valve_rate_error",
+                               "numerical_error",      "free_run_spool",         "velocity_source",
+                               "valve_fit_used",       "valve_fit_residual_rms", "valve_fit_noise",
+                               "position_delay_shift", "position_delay_fit_std", "position_delay",
+                               "valve_delay",          "common_fit_std",         "common_prior",
+                               "valve_shift",          "equation_error_rms",     "simulation_error_rms",
+                               "cycles_fitted"})
       csv->text(column);
     csv->endLine();
   }
@@ -691,8 +694,8 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
         csv->integer(k).text(c.press).quoted(sensors).text(c.effect).integer(c.variation).integer(c.seed);
         csv->text(name).number(r.truth[name].as<double>()).number(p["value"].as<double>());
         csv->number(p["std"].as<double>());
-        for (const char* part : {"regression", "cycles", "free_run", "misfit", "method", "valve_model",
-                                 "velocity", "clock_offsets"})
+        for (const char* part :
+             {"regression", "cycles", "free_run", "misfit", "method", "valve_model", "clock_offsets"})
           csv->number(parts[part].as<double>());
         // What the recording says of its own reconstruction, empty where the summary has no such value: to
         // scale a part for a reconstructed input's bias offline. `at`: the node at a path of keys, or a null
@@ -728,8 +731,8 @@ TEST_F(PressClasses, StandardDeviationsAreCalibratedOverClassesSensorsAndEffects
         csv->number(number({"model", "refined_by_free_run", "samples"}));
         csv->number(number({"settings", "survey", "pressure_noise"}))
             .number(number({"adequacy", "noise_rms"}));
-        for (const char* key : {"resolution_error", "velocity_error", "position_rate_error",
-                                "valve_rate_error", "numerical_error"})
+        for (const char* key :
+             {"resolution_error", "position_rate_error", "valve_rate_error", "numerical_error"})
           csv->number(number({"settings", key}));
         csv->text(word({"settings", "free_run_spool"})).quoted(word({"input", "velocity"}));
         csv->integer(flag({"settings", "valve_from_operation", "used"}));

@@ -272,10 +272,10 @@ double structuredErrorFloor(double noise_rms, const EffectRankingOptions& option
 
 namespace {
 
-// How much of what is left above the noise the recording's own resolution accounts for (a velocity derived
-// from the positions, a slow topic, the grid), where it was measured: a clean fast press without a velocity
-// sensor ran 2.2 times the noise, of which 0.35 bar was the derived velocity's, and "above the noise" alone
-// left the user to guess why.
+// How much of what is left above the noise the recording's own resolution accounts for (a slow topic, the
+// grid), where it was measured: a clean fast press without a velocity sensor ran 2.2 times the noise, of
+// which 0.35 bar was the derived velocity's as the free run read it then, and "above the noise" alone left
+// the user to guess why.
 std::string resolutionShareInWords(double error_rms, double noise_rms, const EffectRankingOptions& options) {
   if (!(options.resolution_error > 0.0)) return "";
   const double above_noise = std::sqrt(std::max(error_rms * error_rms - noise_rms * noise_rms, 0.0));

@@ -448,15 +448,13 @@ void OfflineAnalysis::refineAndCompare(const HydraulicModel& model, OfflineResul
   // fit is implausible (then the model does not describe the recording, and fitting its free run would
   // hide that).
   FreeRunInputSources sources;
-  sources.velocity_derived = r.derived_velocity_samples > 0;
   sources.spool_predicted = r.predicted_spool_messages > 0;
   OutputErrorOptions refine;
   if (!r.partial) {
     tell("refining the parameters by the free run's error");
     refine.jobs = jobs_;
     refine.pressure_noise = config_.grid_pressure_noise;
-    refine.inputs = freeRunInputUncertainties(grid_.grid(), refine.max_samples, config_, free_run_valve_,
-                                              sources.velocity_derived);
+    refine.inputs = freeRunInputUncertainties(grid_.grid(), refine.max_samples, config_, free_run_valve_);
     r.output_error = refineByOutputError(grid_.grid(), model, r.model.values(), r.model.standardDeviations(),
                                          config_.min_pressure, refine);
     if (r.output_error->improved) {

@@ -81,7 +81,9 @@ double FreeRunPressure::rate(const Span& span, double w, double p, const Paramet
   s.t = span.a->t + w * (span.b->t - span.a->t);
   s.p = p;
   s.x = span.x.at(w);
-  s.v = span.v.at(w);
+  // Where either end's velocity is derived, the position's slope (FreeRunPressure's class comment).
+  s.v = span.a->velocity_derived || span.b->velocity_derived ? span.x.slope(w) / (span.b->t - span.a->t)
+                                                             : span.v.at(w);
   s.y = span.y.at(w);
   s.u = span.a->u + w * (span.b->u - span.a->u);
   s.T = span.a->T + w * (span.b->T - span.a->T);

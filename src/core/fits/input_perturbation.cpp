@@ -6,7 +6,6 @@
 #include <limits>
 
 #include "die_cushion_ident/core/fits/output_error_refinement.h"
-#include "die_cushion_ident/core/signal/velocity_from_position.h"
 
 namespace die_cushion_ident {
 
@@ -16,7 +15,7 @@ bool changesNothing(const InputPerturbation& p) {
   const auto zero = [](const std::vector<float>& v) {
     return std::all_of(v.begin(), v.end(), [](float x) { return x == 0.0f; });
   };
-  return zero(p.spool) && zero(p.velocity) && zero(p.pressure);
+  return zero(p.spool) && zero(p.pressure);
 }
 
 // A covariance the valve model's part can be made from: finite, every parameter's variance positive.
@@ -39,9 +38,6 @@ std::vector<GridSample> perturbed(const std::vector<GridSample>& grid, std::size
         const float before = i > 0 ? perturbation.spool[i - 1] : perturbation.spool[i];
         g.y_model_mean = static_cast<float>(g.y_model_mean + sign * 0.5 * (before + perturbation.spool[i]));
       }
-    }
-    if (i < perturbation.velocity.size()) {
-      g.v = static_cast<float>(g.v + sign * perturbation.velocity[i]);
     }
     if (i < perturbation.pressure.size()) {
       g.p = static_cast<float>(g.p + sign * perturbation.pressure[i]);
@@ -123,46 +119,9 @@ std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSam
   return perturbations;
 }
 
-namespace {
-
-// The grid's velocity derived again from its positions, half_width samples each side.
-std::vector<GridSample> derivedAgain(const std::vector<GridSample>& grid, std::size_t n, int half_width) {
-  VelocityFromPosition derive(half_width);
-  std::vector<GridSample> out;
-  out.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    GridSample g = grid[i];
-    g.v = std::numeric_limits<float>::quiet_NaN();
-    derive.push(g, &out);
-  }
-  derive.flush(&out);
-  return out;
-}
-
-}  // namespace
-
-InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n,
-                                              int half_width) {
-  InputPerturbation perturbation;
-  perturbation.input = "velocity";
-  n = std::min(n, grid.size());
-  if (n < 8 || half_width < 1) return perturbation;
-  const std::vector<GridSample> at_window = derivedAgain(grid, n, half_width);
-  const std::vector<GridSample> at_twice = derivedAgain(grid, n, 2 * half_width);
-  perturbation.velocity.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    // Only where the grid's velocity is the one derived at the window (a measured one, where the topic has
-    // it, is not changed).
-    const double derived = at_window[i].v, change = at_twice[i].v - derived;
-    const bool is_derived = std::abs(grid[i].v - derived) <= 1e-6 + 1e-5 * std::abs(derived);
-    perturbation.velocity[i] = is_derived && std::isfinite(change) ? static_cast<float>(change) : 0.0f;
-  }
-  return perturbation;
-}
-
 InputPerturbation commonOffsetPerturbation(const std::vector<GridSample>& grid, std::size_t n, double std) {
   n = std::min(n, grid.size());
-  InputPerturbation change{"clock_offsets", {}, {}, {}};
+  InputPerturbation change{"clock_offsets", {}, {}};
   if (!(std > 0.0) || !std::isfinite(std) || n == 0) return change;
   const std::vector<GridSample> later = timingShifted(grid, n, 0.0, std);
   const std::vector<GridSample> earlier = timingShifted(grid, n, 0.0, -std);
@@ -176,15 +135,13 @@ InputPerturbation commonOffsetPerturbation(const std::vector<GridSample>& grid, 
 
 std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
                                                          const IdentificationConfig& config,
-                                                         const ServoValveParameters& grid_valve,
-                                                         bool velocity_derived) {
+                                                         const ServoValveParameters& grid_valve) {
   n = std::min(n, grid.size());
   std::vector<InputPerturbation> inputs =
       valveModelPerturbations(grid, n, grid_valve, config.valve_covariance);
-  if (velocity_derived) inputs.push_back(derivedVelocityPerturbation(grid, n, config.velocityHalfWidth()));
   if (config.common_delay_std > 0.0)
     inputs.push_back(commonOffsetPerturbation(grid, n, config.common_delay_std));
-  // Each costs two free runs: none for a change of nothing (no model spool on the grid, a measured velocity).
+  // Each costs two free runs: none for a change of nothing (no model spool on the grid).
   inputs.erase(std::remove_if(inputs.begin(), inputs.end(), changesNothing), inputs.end());
   return inputs;
 }
@@ -195,7 +152,7 @@ bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n,
   // The oil's temperature, where the model follows it, is read in the tank or the return line a few times a
   // second, not in the chamber: an input whose error no part carries (a slow press whose oil warmed 20 K had
   // its bulk modulus at 40 degC 4.6 of the free run's stds off, 1.2 %).
-  if (sources.velocity_derived || model.oilStateParameter() >= 0) return false;
+  if (model.oilStateParameter() >= 0) return false;
   const bool fitted_model = usableCovariance(config.valve_covariance);
   n = std::min(n, grid.size());
   for (std::size_t i = 0; i < n; ++i) {

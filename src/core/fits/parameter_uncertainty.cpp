@@ -13,13 +13,13 @@ double ParameterUncertainty::equationError() const {
 
 double ParameterUncertainty::combined() const {
   // The free run's sandwich is the reported estimator's own. Where an input it is driven by has an error no
-  // part carries (a configured valve model, a derived velocity: both estimators biased alike, 3-45 of its
-  // stds on fast presses), the equation error's pool bounds it as well; it is not pooled with the free run's
-  // (pooled, a free run that scatters more than the equation error had its std diluted by the jackknife).
+  // part carries (a configured valve model: both estimators biased alike, 3-45 of its stds on fast
+  // presses), the equation error's pool bounds it as well; it is not pooled with the free run's (pooled, a
+  // free run that scatters more than the equation error had its std diluted by the jackknife).
   const double statistical =
       free_run_inputs_known && free_run > 0.0 ? free_run : std::max(equationError(), free_run);
   return std::sqrt(statistical * statistical + misfit * misfit + method * method + valve_model * valve_model +
-                   velocity * velocity + clock_offsets * clock_offsets);
+                   clock_offsets * clock_offsets);
 }
 
 std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& equation_error,
@@ -45,7 +45,6 @@ std::vector<ParameterUncertainty> combineUncertainty(const HydraulicEstimate& eq
                    : 0.0;
       };
       u.valve_model = part("valve_model");
-      u.velocity = part("velocity");
       u.clock_offsets = part("clock_offsets");
       u.free_run_inputs_known = free_run_inputs_known;
     }

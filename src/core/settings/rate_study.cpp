@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <random>
 #include <string>
 
@@ -75,55 +74,10 @@ void studyPositionRate(const Messages& messages, const IdentificationConfig& at_
   addRateLimit(finding, remedy, choice.position_rate_error, choice);
 }
 
-// A velocity derived from the positions (VelocityFromPosition: the least-squares slope over the velocity
-// window) smooths the impact's kink, where the chamber's flow A v changes fastest, whatever the period: the
-// period study keeps one window at every period (the configured one) and does not see it (a clean fast press
-// without a velocity sensor ran 1.3-1.7 times the noise, 1.0-1.1 times with one, while the period study
-// claimed 0.01-0.03 bar). Studied on its own: the free run of the same parameters with the analysis's window
-// doubled. At windows of a few milliseconds the impact is a step in velocity, and the smeared step's
-// pressure error grows in proportion to the window (first order): by Richardson the error at the window is
-// the change itself. A smooth motion's second order (x' + x''' w^2 / 24) took a third of it and came out
-// 0.3-0.4 of the part a measured velocity removes, on fast and small stiff presses alike.
+// The velocity window where the position topic carries no velocity: it shapes the stroke phases and the
+// equation-error fit's regressors; the free run reads the position's own slope instead (FreeRunPressure).
 double analysisVelocityWindow(double configured_window, bool configured, double period) {
   return configured ? std::max(configured_window, 2.0 * period) : 2.0 * period;
-}
-
-void studyDerivedVelocity(const Messages& messages, const IdentificationConfig& at_chosen, double window,
-                          const HydraulicModel& model, const ParameterVector& theta, const Level& native,
-                          double allowed_change, double noise, SettingsChoice& choice) {
-  if (velocityMeasured(messages)) return;
-  // The study's levels keep one window at every period (the configured one, the paper's 4 ms by default);
-  // the analysis derives over `window`.
-  const auto freeRunWithWindow = [&](double w) {
-    IdentificationConfig c = at_chosen;
-    c.velocity_window = w;
-    Level level = levelAt(c, messages);
-    runFree(model, theta, at_chosen.min_pressure, &level);
-    return level;
-  };
-  // The study's own level where its window is the analysis's (a 2 ms period with the default 4 ms), not a
-  // copy.
-  std::optional<Level> own_level;
-  const Level& analysed =
-      window == at_chosen.velocity_window ? native : own_level.emplace(freeRunWithWindow(window));
-  const double change =
-      changeBetween(freeRunWithWindow(2.0 * window), analysed, at_chosen.resampler.sample_period);
-  if (!std::isfinite(change)) return;
-  const double first_order = change;  // Richardson: change / (2^1 - 1)
-  // No more than the free run leaves beyond the noise, of which it is a part: where the derivative's error is
-  // small (slow and large presses) the doubled window's change is mostly the derived velocity's own noise,
-  // and a large soft press whose free run ran at 1.03 times the noise was told 0.36 of it.
-  const double beyond_noise =
-      std::sqrt(std::max(analysed.error_rms * analysed.error_rms - noise * noise, 0.0));
-  choice.velocity_error = std::isfinite(beyond_noise) ? std::min(first_order, beyond_noise) : first_order;
-  if (!(choice.velocity_error > allowed_change)) return;
-  const std::string finding = formatted(
-      FMT_STRING(
-          "resolution-limited: the velocity is derived from the positions over {:.3g} ms, and the free "
-          "run's error from that alone is about {:.2g} bar (pressure noise {:.2g} bar); "),
-      1e3 * window, 1e-5 * choice.velocity_error, 1e-5 * noise);
-  addRateLimit(finding, "record the cushion's velocity with its position (a JointState velocity)",
-               choice.velocity_error, choice);
 }
 
 namespace {

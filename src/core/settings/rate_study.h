@@ -1,8 +1,7 @@
 #pragma once
 
 // How the topics' message rates limit the free run (private to src/core/settings): the position's rate by
-// Richardson's estimate over thinned position messages, a velocity derived from them by the same over a
-// wider window, the valve's by commands between its messages.
+// Richardson's estimate over thinned position messages, the valve's by commands between its messages.
 
 #include "die_cushion_ident/core/model/hydraulic_model.h"
 #include "die_cushion_ident/core/settings/settings_from_recording.h"
@@ -14,12 +13,6 @@ namespace die_cushion_ident::settings_detail {
 void studyPositionRate(const Messages& messages, const IdentificationConfig& at_chosen,
                        const HydraulicModel& model, const ParameterVector& theta, const Level& native,
                        double allowed_change, double noise, SettingsChoice& choice);
-/// The error a velocity derived from the positions leaves, by Richardson's estimate at first order from the
-/// velocity window doubled (rate_study.cpp); nothing where the position topic carries a velocity.
-/// `window` [s]: the velocity window the analysis derives over (analysisVelocityWindow).
-void studyDerivedVelocity(const Messages& messages, const IdentificationConfig& at_chosen, double window,
-                          const HydraulicModel& model, const ParameterVector& theta, const Level& native,
-                          double allowed_change, double noise, SettingsChoice& choice);
 /// [s] the velocity window the analysis derives over at `period` [s]: two periods, or the configured window
 /// where it is configured (at least two periods).
 double analysisVelocityWindow(double configured_window, bool configured, double period);

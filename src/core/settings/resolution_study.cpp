@@ -29,7 +29,7 @@ constexpr double kConvergingRatio = 1.3;
 constexpr double kDelayKeptUpToNoise = 4.0;
 
 // The free run's offset estimate is uncertain by at least this [s]: its sandwich std (1-5 us) is blind to
-// the model's own timing (the valve's dead time, the derived velocity); over the press matrix's late-stamp
+// the model's own timing (the valve's dead time); over the press matrix's late-stamp
 // recordings with the right model it came up to 0.19 ms off (8 cycles), most within 0.06 ms.
 constexpr double kFreeRunOffsetFloor = 1e-4;
 // Grid samples the offset is refined on (from the survey's start): 6 s at 1 ms. 12 000 instead of 20 000
@@ -72,10 +72,11 @@ std::optional<OutputErrorFit> refinePositionDelay(const HydraulicModel& model, c
   // class) but not their common one, 30-460 us off, which left a fast press's bulk modulus 0.4 % and a large
   // soft press's dead volume 0.6 % lower than with the offsets known, and no part of the stds carried it.
   // Where they were not applied (none told from 0) the topics agree, and the common part stays 0. Only where
-  // the free run's inputs are measured as often as the pressure: a velocity derived from the position, a
-  // position slower than the pressure or a spool the configured valve model predicts has a timing of its own,
-  // which the common shift would take up (a fast press with its position at 500 Hz and no velocity: 190 us
-  // off, with a std of 7 us).
+  // the free run's inputs are measured as often as the pressure: a position slower than the pressure or a
+  // spool the configured valve model predicts has a timing of its own, which the common shift would take up
+  // (a fast press with its position at 500 Hz and no velocity: 190 us off, with a std of 7 us). A velocity
+  // derived from the position had one too while the free run read it; it reads the position's own slope now
+  // (FreeRunPressure), but the shift has not been measured on such recordings since, and stays off there.
   if (choice.delays_applied && inputs_measured) options.pressure_shift_scale = common;
   options.kept_up_to_noise = kDelayKeptUpToNoise;
   // Its resolution as a clock offset is the floor (the model's timing moves it as much). The sandwich (a
@@ -311,16 +312,11 @@ StudyOutcome ResolutionStudy::run(double allowed_change, double noise, double fi
   choice_.numerical_error = numericalError(model_, theta_, choice_.config.min_pressure, &level(chosen));
   outcome.grid_error = choice_.resolution_error;
   const IdentificationConfig at_chosen = atPeriod(choice_.config, outcome.chosen_period, shortest_drawing_);
-  // Richardson's extrapolations of the position's rate and of the derived velocity need a free run that
-  // converges; the valve's rate is a difference of two free runs, measured, not extrapolated (a fast press
-  // with its valve at 250 Hz, whose free run ran 46 times the noise, did not converge as the period halved
-  // and was told "structured").
+  // Richardson's extrapolation of the position's rate needs a free run that converges; the valve's rate is a
+  // difference of two free runs, measured, not extrapolated (a fast press with its valve at 250 Hz, whose
+  // free run ran 46 times the noise, did not converge as the period halved and was told "structured").
   if (!choice_.resolution_not_converging) {
     studyPositionRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, choice_);
-    studyDerivedVelocity(messages_, at_chosen,
-                         analysisVelocityWindow(choice_.config.velocity_window, velocity_window_configured_,
-                                                outcome.chosen_period),
-                         model_, theta_, level(chosen), allowed_change, noise, choice_);
   }
   studyValveRate(messages_, at_chosen, model_, theta_, level(chosen), allowed_change, noise, jobs_, choice_);
   return outcome;

@@ -55,8 +55,6 @@ class ResolutionStudy {
         levels_(periods_.size()) {}
 
   StudyOutcome run(double allowed_change, double noise, double finest_interval, double configured_period);
-  /// Whether the user configured velocity_window (the derived velocity is then studied over it).
-  void setVelocityWindowConfigured(bool configured) { velocity_window_configured_ = configured; }
 
  private:
   Level& level(std::size_t k) { return level(k, model_); }
@@ -87,7 +85,6 @@ class ResolutionStudy {
   HydraulicEstimate fit_;
   ParameterVector theta_;
   double shortest_drawing_ = 0.0;
-  bool velocity_window_configured_ = false;
 };
 
 }  // namespace die_cushion_ident::settings_detail

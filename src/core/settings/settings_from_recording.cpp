@@ -238,8 +238,9 @@ void keepConfigured(const IdentificationConfig& configured_config, const std::se
 
 // The velocity where the position topic carries none: differentiated over two sample periods of the chosen
 // grid. Over the paper's 4 ms a fast press's 3-5 ms impact was smeared into 2.4 times the noise and a
-// "missing" tank pressure; over 2 ms (at 1 ms) 1.5 times and nothing missing. The study keeps one window at
-// every period, so that the derived velocity's noise is not read as the grid's error.
+// "missing" tank pressure; over 2 ms (at 1 ms) 1.5 times and nothing missing (measured while the free run
+// read the derived velocity; it now reads the position's own slope, and the window shapes the stroke phases
+// and the equation-error fit). The study keeps one window at every period.
 void chooseVelocityWindow(const IdentificationConfig& configured_config, bool configured, SettingsChoice& choice) {
   IdentificationConfig& c = choice.config;
   ChosenSetting velocity;
@@ -340,7 +341,6 @@ SettingsChoice SettingsFromRecording::choose() const {
   if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
   choice.seconds_spent_on.valve_model = valve_seconds;
   ResolutionStudy study(messages_, periods, jobs_, choice);
-  study.setVelocityWindowConfigured(configured_.count("velocity_window") > 0);
   const StudyOutcome outcome = study.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
   const IdentificationConfig chosen = atPeriod(choice.config, outcome.chosen_period, outcome.shortest_drawing);
   addSetting(choice, "sample_period", outcome.chosen_period, periodReason(outcome, choice, finest_interval, noise));

@@ -24,8 +24,8 @@ double median(std::vector<double> values) {
 
 // The configuration at `period` with the paper's windows in time, no longer than half the shortest drawing;
 // the velocity derived (where the position has none) over the same window at every period (a central
-// difference over 2 ms samples): a window that shrank with the period made the derived velocity noisier and
-// the free run's change look like a resolution error.
+// difference over 2 ms samples): a window that shrank with the period made the derived velocity noisier (it
+// shapes the stroke phases and the equation-error fit; the free run reads the position's own slope).
 IdentificationConfig atPeriod(IdentificationConfig c, double period, double shortest_drawing) {
   c.resampler.sample_period = period;
   c.velocity_window = std::max(c.velocity_window, 2.0 * period);

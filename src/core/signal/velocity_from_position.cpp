@@ -78,7 +78,8 @@ void VelocityFromPosition::emit(std::size_t index, std::vector<GridSample>* out)
     };
     g.v = slope(View{begin, end}, [](const GridSample& s) { return s.t; },
                 [](const GridSample& s) { return s.x; });
-    if (std::isfinite(g.v)) ++derived_;
+    g.velocity_derived = std::isfinite(g.v);
+    if (g.velocity_derived) ++derived_;
   }
   out->push_back(g);
 }

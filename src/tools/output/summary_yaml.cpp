@@ -47,8 +47,7 @@ void emitParameters(YAML::Emitter& out, const std::vector<IdentifiedParameter>& 
           << YAML::Value << u.regression << YAML::Key << "cycles" << YAML::Value << u.cycles << YAML::Key
           << "free_run" << YAML::Value << u.free_run << YAML::Key << "misfit" << YAML::Value << u.misfit
           << YAML::Key << "method" << YAML::Value << u.method << YAML::Key << "valve_model" << YAML::Value
-          << u.valve_model << YAML::Key << "velocity" << YAML::Value << u.velocity << YAML::Key
-          << "clock_offsets" << YAML::Value << u.clock_offsets << YAML::EndMap;
+          << u.valve_model << YAML::Key << "clock_offsets" << YAML::Value << u.clock_offsets << YAML::EndMap;
     }
     out << YAML::EndMap;
   }
@@ -167,9 +166,6 @@ void emitSettings(YAML::Emitter& out, const IdentificationConfig& config,
   }
   if (std::isfinite(choice->position_rate_error)) {
     out << YAML::Key << "position_rate_error" << YAML::Value << choice->position_rate_error;
-  }
-  if (std::isfinite(choice->velocity_error)) {
-    out << YAML::Key << "velocity_error" << YAML::Value << choice->velocity_error;
   }
   if (std::isfinite(choice->valve_rate_error)) {
     out << YAML::Key << "valve_rate_error" << YAML::Value << choice->valve_rate_error;

@@ -1,7 +1,6 @@
 // The reconstructed inputs' part of the refined parameters' stds (InputPerturbation,
 // OutputErrorFit::input_std): the valve model's uncertainty carried through the free run it drives must be
-// what a refit on the changed spool gives, and a velocity derived from positions it describes exactly must
-// carry none.
+// what a refit on the changed spool gives.
 #include <gtest/gtest.h>
 
 #include <climits>
@@ -12,7 +11,6 @@
 #include "die_cushion_ident/core/adequacy/held_out_test.h"
 #include "die_cushion_ident/core/fits/output_error_refinement.h"
 #include "die_cushion_ident/core/model/hydraulic_model.h"
-#include "die_cushion_ident/core/signal/velocity_from_position.h"
 #include "die_cushion_ident/core/simulation/press_class.h"
 
 using namespace die_cushion_ident;
@@ -84,47 +82,4 @@ TEST(InputPerturbation, TheValveModelsPartIsTheRefitsChange) {
       EXPECT_NEAR(change, part(i), std::max(0.25 * part(i), 0.1 * fit.std(i))) << "parameter " << i;
     }
   }
-}
-
-// Positions of a constant speed (the cushion pushed down at 0.2 m/s) are differentiated exactly by any
-// window: the change from the window to twice it is zero. A kink (the ram's impact) changes the derived
-// velocity only within twice the window of it, and a velocity the topic measured is not changed at all.
-TEST(InputPerturbation, AVelocityTheWindowDerivesExactlyCarriesNothing) {
-  std::vector<GridSample> grid(400);
-  // The grid's velocity as the pipeline derives it (2 ms grid, a 4 ms window: one sample each side).
-  const auto derive = [&grid] {
-    VelocityFromPosition derivation(1);
-    std::vector<GridSample> out;
-    for (GridSample g : grid) {
-      g.v = std::numeric_limits<float>::quiet_NaN();
-      derivation.push(g, &out);
-    }
-    derivation.flush(&out);
-    grid = out;
-  };
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    grid[i].t = 0.002 * static_cast<double>(i);
-    grid[i].x = static_cast<float>(0.01 + 0.2 * grid[i].t);
-  }
-  derive();
-  const InputPerturbation straight = derivedVelocityPerturbation(grid, grid.size(), 1);
-  ASSERT_EQ(straight.velocity.size(), grid.size());
-  for (float dv : straight.velocity) EXPECT_NEAR(dv, 0.0, 1e-4);
-  for (std::size_t i = 200; i < grid.size(); ++i) grid[i].x = static_cast<float>(0.01 + 0.2 * grid[199].t);
-  derive();
-  const InputPerturbation kinked = derivedVelocityPerturbation(grid, grid.size(), 1);
-  double near = 0.0, far = 0.0;
-  for (std::size_t i = 0; i < grid.size(); ++i) {
-    const double dv = std::abs(kinked.velocity[i]);
-    if (i >= 195 && i <= 204) near = std::max(near, dv);
-    if (i < 190 || i > 210) far = std::max(far, dv);
-  }
-  EXPECT_GT(near, 0.02);
-  EXPECT_LT(far, 1e-4);
-  // The same motion with its velocity measured (0.2 m/s, then at rest, with the sensor's 0.1 mm/s of
-  // noise): nothing to change.
-  for (std::size_t i = 0; i < grid.size(); ++i)
-    grid[i].v = static_cast<float>((i < 200 ? 0.2 : 0.0) + (i % 2 == 0 ? 1e-4 : -1e-4));
-  const InputPerturbation measured = derivedVelocityPerturbation(grid, grid.size(), 1);
-  for (float dv : measured.velocity) EXPECT_NEAR(dv, 0.0, 1e-4);
 }

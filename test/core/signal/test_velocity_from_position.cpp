@@ -43,6 +43,7 @@ TEST(VelocityFromPosition, ARampGivesItsSlopeKSamplesLater) {
     EXPECT_DOUBLE_EQ(out[i].t, i * kDt) << "in order, each with its own stamp";
     // float positions: 0.2 m resolved to 1.5e-8 m, over a 20 ms window 1e-6 m/s.
     EXPECT_NEAR(out[i].v, kSpeed, 1e-5) << "one-sided at the ends, centred inside: " << i;
+    EXPECT_TRUE(out[i].velocity_derived) << "marked, so that the free run reads the position instead";
   }
   EXPECT_EQ(derive.derived(), 200u);
   EXPECT_EQ(derive.delaySamples(), kHalfWidth);
@@ -77,6 +78,7 @@ TEST(VelocityFromPosition, AMeasuredVelocityPassesUnchangedAndUndelayed) {
     derive.push(g, &out);
     ASSERT_EQ(out.size(), static_cast<std::size_t>(k + 1)) << "nothing waits: no delay";
     EXPECT_EQ(out.back().v, 0.25f);
+    EXPECT_FALSE(out.back().velocity_derived);
   }
   EXPECT_EQ(derive.derived(), 0u);
 }

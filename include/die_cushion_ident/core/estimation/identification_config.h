@@ -84,8 +84,8 @@ struct IdentificationConfig {
 
   /// [s] window of the least-squares differentiator that derives the velocity from the position where
   /// the position topic carries none (VelocityFromPosition); it delays every sample by half of it. The
-  /// default (one grid sample each side: a central difference) keeps the impact sharp; a 20 ms window
-  /// smeared it and tripled the free-run error (doc/sensor_configurations.md).
+  /// default (one grid sample each side: a central difference) keeps the impact sharp for the stroke phases
+  /// and the equation-error fit (the free run reads the position's own slope: doc/sensor_configurations.md).
   double velocity_window = 0.004;
   /// [s] how late each topic's stamps are against the true measurement instant (pressure, position,
   /// valve); subtracted from the stamps. NaN = not set: analyze_bag estimates it from the data, the node

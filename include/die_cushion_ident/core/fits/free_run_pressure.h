@@ -17,6 +17,8 @@ double catmullRom(double before, double a, double b, double after, double w);
 struct CatmullRomCubic {
   CatmullRomCubic(double before, double a, double b, double after);
   double at(double w) const { return a + w * (ta + w * (square + w * cube)); }
+  /// d/dw of at(w): the channel's change per span.
+  double slope(double w) const { return ta + w * (2.0 * square + 3.0 * w * cube); }
   double a, ta, square, cube;
 };
 
@@ -24,7 +26,8 @@ struct CatmullRomCubic {
 ///
 ///   dp/dt = f(t, p) = (A v(t) - Q_v(y(t), p) - Q_extra(p, ...)) / C(p, x(t))
 ///
-/// integrated over time, driven only by the measured position x, velocity v and the spool y (the valve
+/// integrated over time, driven only by the measured position x, velocity v (x's own slope where v is
+/// derived from it) and the spool y (the valve
 /// model's, GridSample::y_model, where there is one: it carries none of the spool sensor's noise; between
 /// grid samples with its exact mean over the interval, GridSample::y_model_mean). This is
 /// the error a user sees when the model is used for simulation or control design; it accumulates what the
@@ -33,6 +36,12 @@ struct CatmullRomCubic {
 /// Its own error is held far below the sensors' noise (doc/equations.md, "The free run"):
 ///  - the inputs between grid samples are cubic (Catmull-Rom through the two samples each side, C1, exact
 ///    for quadratics), not linear: a 4 ms impact seen on a 1 ms grid left 0.5 bar with linear inputs;
+///  - a velocity derived from the position (GridSample::velocity_derived) is not read: v is the slope of the
+///    position's own cubic, so the volume swept over each interval is the position's change. The derived
+///    samples are least-squares slopes over the velocity window, a mean of the motion over 2-4 ms; read
+///    between samples they spread the impact's compression over the window's neighbours, and the refined
+///    bulk modulus came out 2.4-4.9 % low on fast presses, 0.6-1.2 % on small stiff ones and 0.4-0.9 % on
+///    slow ones (12 recordings, 2026-12-07; with a valve overlap, mean z -1.34 over 30 calibration ones);
 ///  - the ODE is integrated under step-size control to `tolerance` [Pa] per step: by Dormand-Prince 5(4)
 ///    (about one step a grid interval), and where the chamber is stiff (h |df/dp| beyond its stability
 ///    limit: a small chamber behind a wide-open valve has time constants below 0.5 ms) by ROS2 (Verwer et al.

@@ -13,13 +13,13 @@ namespace die_cushion_ident {
 
 /// One standard uncertainty of a reconstructed input of the free run, as the change it makes to the grid's
 /// first samples: `spool` is added to the spool that drives the free run (FreeRunPressure::spoolOf),
-/// `velocity` to the velocity [m/s]; either may be empty (no change). refineByOutputError carries it into
+/// `pressure` to the measured pressure; either may be empty (no change). refineByOutputError carries it into
 /// the parameters through its Jacobian (OutputErrorOptions::inputs): the measured pressure cannot tell a
 /// parameter's change from the input's error the same pressure change comes from, so the input's
 /// uncertainty is the parameters' too (doc/equations.md, "The reconstructed inputs' part").
 struct InputPerturbation {
   std::string input;  ///< which input's uncertainty: the parts of one input add in quadrature
-  std::vector<float> spool, velocity;
+  std::vector<float> spool;
   std::vector<float> pressure;  ///< [Pa] added to the measured pressure
 };
 
@@ -36,15 +36,6 @@ std::vector<InputPerturbation> valveModelPerturbations(const std::vector<GridSam
                                                        const ServoValveParameters& valve,
                                                        const Eigen::Matrix4d& covariance);
 
-/// A velocity derived from the position over 2 `half_width` + 1 grid samples as a velocity change
-/// ("velocity"): the change from that window to twice it, both least-squares slopes of the grid's positions,
-/// where the grid's velocity is the one derived at the window (to 1e-6 m/s; 0 where it was measured, whose
-/// noise keeps it off the derived value). At a kink of the
-/// motion (the ram's impact) the derivative's error grows in proportion to its window, and the change is
-/// the error itself (Richardson); in smooth stretches it grows with the window's square, and the change is
-/// about three times it. Empty where the grid is too short.
-InputPerturbation derivedVelocityPerturbation(const std::vector<GridSample>& grid, std::size_t n, int half_width);
-
 /// The topics' common clock offset against the pressure, known to `std` [s], as a pressure change
 /// ("clock_offsets"): the pressure read `std` later less read `std` earlier, halved (timingShifted). Reading
 /// the pressure later is reading every input earlier.
@@ -52,25 +43,23 @@ InputPerturbation commonOffsetPerturbation(const std::vector<GridSample>& grid, 
 
 /// What drives the free run on the grid's first `n` samples beside the measurements, as perturbations: the
 /// spool of `grid_valve` (the model that made the grid's y_model) where it was fitted to the recording
-/// (`config.valve_covariance`) and a velocity derived from the position (`velocity_derived`) over
-/// `config.velocity_window`, and the topics' estimated common clock offset (`config.common_delay_std`); those
-/// that change nothing left out.
+/// (`config.valve_covariance`), and the topics' estimated common clock offset (`config.common_delay_std`);
+/// those that change nothing left out. A velocity derived from the position is none of them: the free run
+/// reads the position's own slope there (FreeRunPressure).
 std::vector<InputPerturbation> freeRunInputUncertainties(const std::vector<GridSample>& grid, std::size_t n,
                                                          const IdentificationConfig& config,
-                                                         const ServoValveParameters& grid_valve,
-                                                         bool velocity_derived);
+                                                         const ServoValveParameters& grid_valve);
 
 /// Where the free run's inputs came from, beside the grid's own samples.
 struct FreeRunInputSources {
-  bool velocity_derived = false;  ///< from the position (no velocity on the topic)
-  bool spool_predicted = false;   ///< a configured valve model stood in for a spool the topic does not carry
+  bool spool_predicted = false;  ///< a configured valve model stood in for a spool the topic does not carry
 };
 
 /// Whether every input of the free run over the grid's first `n` samples is measured or carries its
-/// uncertainty (freeRunInputUncertainties): a measured velocity, and the measured spool or a valve model
-/// fitted to it. A configured valve model's spool (predicted, or y_model without a covariance), a derived
-/// velocity or the oil's temperature (where `model` follows it) is not: its error is in neither std
-/// (ParameterUncertainty::free_run_inputs_known).
+/// uncertainty (freeRunInputUncertainties): the measured spool or a valve model fitted to it (the position
+/// is measured, and a velocity derived from it is the position's own slope in the free run). A configured
+/// valve model's spool (predicted, or y_model without a covariance) or the oil's temperature (where `model`
+/// follows it) is not: its error is in neither std (ParameterUncertainty::free_run_inputs_known).
 bool freeRunInputsKnown(const std::vector<GridSample>& grid, std::size_t n,
                         const IdentificationConfig& config, const HydraulicModel& model,
                         const FreeRunInputSources& sources);

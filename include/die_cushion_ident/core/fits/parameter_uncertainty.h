@@ -9,7 +9,7 @@
 namespace die_cushion_ident {
 
 /// What a reported parameter's standard uncertainty is made of [its unit]:
-/// u = sqrt(s^2 + misfit^2 + method^2 + valve_model^2 + velocity^2 + clock_offsets^2), s = free_run where the
+/// u = sqrt(s^2 + misfit^2 + method^2 + valve_model^2 + clock_offsets^2), s = free_run where the
 /// free run's inputs are all known, else max(sqrt((regression^2 + cycles^2) / 2), free_run)
 /// (doc/equations.md, "What analyze_bag reports"):
 ///  - `regression`: the equation-error fit's own, its Newey-West sandwich;
@@ -41,19 +41,17 @@ struct ParameterUncertainty {
   double free_run = 0.0;
   double misfit = 0.0;
   double method = 0.0;
-  /// `valve_model`, `velocity`: where the free run refined the estimate, what the reconstructed inputs' own
-  /// uncertainty makes of it (OutputErrorFit::input_std): the valve model fitted to the operation, whose
-  /// spool drives the free run, and a velocity derived from the position (0 where measured).
+  /// `valve_model`: where the free run refined the estimate, what the reconstructed input's own uncertainty
+  /// makes of it (OutputErrorFit::input_std): the valve model fitted to the operation, whose spool drives the
+  /// free run.
   double valve_model = 0.0;
-  double velocity = 0.0;
   /// `clock_offsets`: likewise, the topics' common clock offset against the pressure where the offsets were
   /// estimated and applied (IdentificationConfig::common_delay_std); 0 where they were configured or none
   /// was applied.
   double clock_offsets = 0.0;
-  /// Every input of the free run is measured or has its uncertainty in valve_model / velocity: the free
-  /// run's sandwich alone is then the refined estimate's statistical part. Otherwise (a configured valve
-  /// model drives it, or a velocity whose error is not fully propagated) the equation error's pool bounds it
-  /// too.
+  /// Every input of the free run is measured or has its uncertainty in valve_model: the free run's sandwich
+  /// alone is then the refined estimate's statistical part. Otherwise (a configured valve model drives it)
+  /// the equation error's pool bounds it too.
   bool free_run_inputs_known = false;
   /// sqrt((regression^2 + cycles^2) / 2), or regression where the jackknife did not run.
   double equationError() const;

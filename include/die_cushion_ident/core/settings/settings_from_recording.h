@@ -77,11 +77,6 @@ struct SettingsChoice {
   /// NaN otherwise): by Richardson's estimate from the free runs on every second and fourth position message.
   /// Part of resolution_error (added in quadrature to the grid's).
   double position_rate_error = std::numeric_limits<double>::quiet_NaN();
-  /// [Pa] the free run's error from a velocity derived from the positions (where the position topic carries
-  /// none; NaN otherwise): by Richardson's estimate at first order (the impact a step in velocity at the
-  /// window's scale) from the free run with the analysis's velocity window doubled. Part of resolution_error
-  /// where above the allowed share of the noise.
-  double velocity_error = std::numeric_limits<double>::quiet_NaN();
   /// [Pa] how much the free run depends on commands between the valve topic's messages (where they come
   /// fewer than 4 per period of the valve's natural frequency and the spool is measured; NaN otherwise): the
   /// rms difference between the free runs with each command held to the next message and with one more

@@ -67,6 +67,10 @@ struct GridSample {
   float T = std::numeric_limits<float>::quiet_NaN();
   bool complete = true;
   bool discontinuity = false;
+  /// v was derived from the position (VelocityFromPosition), not measured: the free run then takes the
+  /// cushion's velocity from the position's own cubic between samples, whose integral over an interval is the
+  /// position's change (FreeRunPressure).
+  bool velocity_derived = false;
 };
 
 /// Stamp health of one stream, for diagnostics and reports.

@@ -9,8 +9,9 @@
 namespace die_cushion_ident {
 
 /// Fills in the cushion velocity v = dx/dt on the uniform grid where the position topic carries none (a
-/// linear encoder gives position only), so that the free run, the stroke phases and the cycles see the same
-/// signal as with a measured velocity.
+/// linear encoder gives position only), so that the stroke phases, the cycles and the equation-error fit see
+/// the same signal as with a measured velocity, and marks the sample (GridSample::velocity_derived): the free
+/// run takes the position's own slope there instead (FreeRunPressure).
 ///
 /// v_k is the least-squares slope of x over the centred window of 2K+1 grid samples (t_{k-K} ... t_{k+K}):
 ///   v_k = sum_j (t_j - tbar)(x_j - xbar) / sum_j (t_j - tbar)^2,
