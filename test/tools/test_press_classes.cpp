@@ -238,6 +238,32 @@ TEST_F(PressClasses, AFastPressThroughACellsSlowLateSensorsReadsRight) {
   }
 }
 
+// A fast press without a velocity whose topics come from other clocks: the survey refines the topics' common
+// clock offset against the pressure by the free run, as with a measured velocity, now that the free run reads
+// the position's own slope (the derived samples had a timing of their own, which the shift took up, and it
+// stayed off). On 120 such recordings of the fast press the bulk modulus's median error fell from 0.85 to
+// 0.31 %; on the other classes the free run does not pin the common offset and nothing changes.
+TEST_F(PressClasses, AFastPressWithoutAVelocityFindsTheCommonClockOffset) {
+  for (const Case& c :
+       {Case{"fast_mechanical", "none", "--no-velocity --stamp-offsets 0,0.01,0.005", 0, 1},
+        Case{"fast_mechanical", "none", "--no-velocity --stamp-offsets 0,0.01,0.005", 12, 5}}) {
+    SCOPED_TRACE(c.name());
+    const Recorded r = record(c);
+    const Analysis a = analyze(r, kWork + "/" + c.name());
+    ASSERT_EQ(a.status, 0) << a.output;
+    const YAML::Node refined = a.summary["settings"]["position_delay_refined_by_free_run"];
+    ASSERT_TRUE(refined["common_fit_std"]) << "the common offset is refined";
+    EXPECT_LT(refined["common_fit_std"].as<double>(), 0.1 * refined["common_prior"].as<double>())
+        << "and pinned";
+    EXPECT_NE(refined["valve_shift"].as<double>(0.0), 0.0) << "and applied";
+    double std = 0.0;
+    const double value = summaryParameter(a.summary, "bulk_modulus", &std);
+    const double truth = r.truth["bulk_modulus"].as<double>();
+    EXPECT_NEAR(value / truth, 1.0, 0.01);
+    EXPECT_LT(std::abs(value - truth), 3.0 * std);
+  }
+}
+
 // A ram three times faster than the fast mechanical press's (1.5 m/s into the cushion, simulate_bag
 // --ram-speed): the drawing a third as long, the valve passing three times the flow. A clean press still
 // reads clean: nothing missing, the free run near the noise (measured 1.00-1.08 times on variations 3, 7,

@@ -48,12 +48,6 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-bool velocityMeasured(const Messages& messages) {
-  return std::any_of(messages.begin(), messages.end(), [](const auto& message) {
-    return message.first == InputStream::kPosition && std::isfinite(message.second.second);
-  });
-}
-
 std::vector<GridSample> gridAt(const IdentificationConfig& config, const Messages& messages) {
   std::vector<GridSample> grid;
   IdentificationPipeline pipeline(config);

@@ -33,8 +33,6 @@ double median(std::vector<double> values);
 IdentificationConfig atPeriod(IdentificationConfig c, double period, double shortest_drawing);
 double secondsSince(std::chrono::steady_clock::time_point start);
 std::vector<GridSample> gridAt(const IdentificationConfig& config, const Messages& messages);
-/// Whether the position topic carries the cushion's velocity (a JointState's velocity field).
-bool velocityMeasured(const Messages& messages);
 
 // One sample period of the study: the survey on its grid, and one model run free on it.
 struct Level {
