@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <utility>
 #include <vector>
@@ -26,7 +27,7 @@ namespace die_cushion_ident::topic_delay_detail {
 // clocks agreed (and its fit implausible).
 constexpr double kWindow = 0.025;  // [s]
 constexpr double kKnots[] = {0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07};
-constexpr int kKnotCount = 7;
+constexpr int kKnotCount = static_cast<int>(std::size(kKnots));
 // 1/K', V_dead/K', air, opening y, the knots' hinges, tank (y / sqrt(p)), leakage (p), a constant flow.
 constexpr int kRegressors = 3 + 1 + kKnotCount + 3;
 // Lags of the rows' residual autocorrelation taken into the uncertainty: a model's misfit repeats over a
