@@ -213,8 +213,8 @@ FoldSizes foldSizes(const HeldOutErrors& base, const HeldOutErrors& with) {
 
 // Nadeau and Bengio's correction for held-out units that share a fit: every cycle a fold tests is judged
 // with the same fitted extension, so their gains share that fit's noise, of variance about 1/n_train of
-// one cycle's. The mean's variance is then s^2/n (1 + sum_f n_test,f^2 / (n n_train,f)): twice the naive
-// one for two equal halves (measured on 200 clean recordings: 1.9, doc/model_adequacy.md).
+// one cycle's. The mean's variance is then s^2/n (1 + sum_f n_test,f^2 / (n n_train,f)). Used only where
+// the held-out cycles are all in one fold, so the shared part cannot be measured.
 double sharedFitInflation(const std::array<int, 2>& tested, const FoldSizes& folds) {
   const int n = tested[0] + tested[1];
   double inflation = 1.0;
@@ -224,6 +224,44 @@ double sharedFitInflation(const std::array<int, 2>& tested, const FoldSizes& fol
     }
   }
   return inflation;
+}
+
+// The variance of the gains' mean under a one-way random-effects model of the folds: gain = mean + the
+// fold's shared fit noise u_f + the cycle's own e_c. Within the folds, MSW estimates var(e); between them,
+// MSB estimates var(e) + n0 var(u) (n0 = (n - sum n_f^2 / n), one degree of freedom for two folds). The
+// shared part cannot be negative, so var(u) is (MSB - MSW) / n0 where that is positive and 0 otherwise;
+// var(mean) = var(e) / n + var(u) sum (n_f / n)^2, which is max(MSW, MSB) / n for two equal folds. The
+// constant Nadeau-Bengio factor (2 for two halves) assumed the largest shared part whatever the folds
+// showed: on clean presses, whose folds agree, the test's size was 1-2 % at 5 % (doc/model_adequacy.md).
+double varianceOfMeanGain(const std::vector<double>& gains, const std::vector<int>& fold_of,
+                          const FoldSizes& folds) {
+  const int n = static_cast<int>(gains.size());
+  std::array<int, 2> count = {0, 0};
+  std::array<double, 2> fold_mean = {0.0, 0.0};
+  double mean = 0.0;
+  for (int c = 0; c < n; ++c) {
+    ++count[fold_of[c]];
+    fold_mean[fold_of[c]] += gains[c];
+    mean += gains[c] / n;
+  }
+  double within = 0.0, total = 0.0;
+  for (int f = 0; f < 2; ++f)
+    if (count[f] > 0) fold_mean[f] /= count[f];
+  for (int c = 0; c < n; ++c) {
+    within += (gains[c] - fold_mean[fold_of[c]]) * (gains[c] - fold_mean[fold_of[c]]);
+    total += (gains[c] - mean) * (gains[c] - mean);
+  }
+  if (count[0] == 0 || count[1] == 0 || n < 3)
+    return n > 1 ? total / (n - 1) / n * sharedFitInflation(count, folds) : 0.0;
+  const double msw = within / (n - 2);
+  double between = 0.0, share = 0.0;
+  for (int f = 0; f < 2; ++f) {
+    between += count[f] * (fold_mean[f] - mean) * (fold_mean[f] - mean);
+    share += static_cast<double>(count[f]) * count[f] / (static_cast<double>(n) * n);
+  }
+  const double n0 = n - share * n;
+  const double shared = std::max(between - msw, 0.0) / n0;
+  return msw / n + shared * share;
 }
 
 }  // namespace
@@ -308,25 +346,21 @@ HeldOutComparison compareHeldOut(const std::vector<GridSample>& grid, const Stro
   const FoldSizes folds = foldSizes(base, with);
   // Paired by cycle id: a cycle that one model could not run does not shift the others.
   std::vector<double> gains;
-  std::array<int, 2> tested = {0, 0};
+  std::vector<int> fold_of;
   for (std::size_t c = 0; c < base.cycle_rms.size() && c < with.cycle_rms.size(); ++c) {
     const double base_square = base.cycle_rms[c] * base.cycle_rms[c];
     const double with_square = with.cycle_rms[c] * with.cycle_rms[c];
     if (!std::isfinite(base_square) || !std::isfinite(with_square) || !(base_square > 0.0)) continue;
     const double adjust = c < adjustment.size() && std::isfinite(adjustment[c]) ? adjustment[c] : 0.0;
     gains.push_back((base_square - with_square + adjust) / base_square);
-    ++tested[folds.foldOf(static_cast<int>(c))];
+    fold_of.push_back(folds.foldOf(static_cast<int>(c)));
   }
   const int n = static_cast<int>(gains.size());
   result.cycles = n;
   if (n == 0) return result;
-  double mean = 0.0, squares = 0.0;
-  for (double d : gains) {
-    mean += d / n;
-    squares += d * d;
-  }
-  const double sd = n > 1 ? std::sqrt(std::max(squares - n * mean * mean, 0.0) / (n - 1)) : 0.0;
-  const double standard_error = sd / std::sqrt(n) * std::sqrt(sharedFitInflation(tested, folds));
+  double mean = 0.0;
+  for (double d : gains) mean += d / n;
+  const double standard_error = std::sqrt(varianceOfMeanGain(gains, fold_of, folds));
   // Negative where the extension predicts better, as the verdicts read it.
   result.t_statistic = standard_error > 0.0 ? -mean / standard_error : (mean > 0 ? -1e9 : 1e9);
   if (n > 1) {

@@ -367,30 +367,49 @@ TEST(EffectRanking, HolmsStepDownRejectsInOrderAndStopsAtTheFirstKept) {
   EXPECT_EQ(holmRejected({std::nan(""), 0.001}, 0.05), (std::vector<bool>{false, true}));
 }
 
-// The held-out t test's variance counts the fit a fold's cycles share (Nadeau and Bengio): for two equal
-// halves twice the naive one, and less where a fold has fewer held-out cycles than its partner trained on.
-TEST(EffectRanking, TheHeldOutTestCountsTheFitAFoldsCyclesShare) {
+// The held-out t test's variance counts the fit a fold's cycles share as much as the folds show it: the
+// cycles' own spread where the two folds' mean gains agree, the folds' disagreement where it is larger (a
+// one-way random-effects model of the folds), and Nadeau and Bengio's bound where only one fold is held out.
+TEST(EffectRanking, TheHeldOutTestCountsTheFitAFoldsCyclesShareAsTheFoldsShowIt) {
   HeldOutErrors base, with;
   base.cycle_rms.assign(8, 1.0);
-  with.cycle_rms = {0.9, 0.8, 0.95, 0.7, 0.85, 0.9, 0.75, 0.8};  // no predictions kept: gains 1 - with^2
-  const auto naiveT = [&](const std::vector<int>& cycles) {
-    double mean = 0.0, squares = 0.0;
-    for (int c : cycles) mean += (1.0 - with.cycle_rms[c] * with.cycle_rms[c]) / cycles.size();
-    for (int c : cycles) squares += std::pow(1.0 - with.cycle_rms[c] * with.cycle_rms[c] - mean, 2);
-    return -mean / std::sqrt(squares / (cycles.size() - 1) / cycles.size());
+  // No predictions kept: each cycle's gain is 1 - with^2. The first four cycles are one fold, the rest the
+  // other.
+  const auto gainsOf = [&](const std::vector<double>& gains) {
+    with.cycle_rms.clear();
+    for (double g : gains) with.cycle_rms.push_back(std::sqrt(1.0 - g));
   };
   const std::vector<GridSample> grid;
   const StrokeSegmentation strokes;
-  const HeldOutComparison halves = compareHeldOut(grid, strokes, base, with, 0.05);
-  EXPECT_EQ(halves.cycles, 8);
-  EXPECT_NEAR(halves.t_statistic, naiveT({0, 1, 2, 3, 4, 5, 6, 7}) / std::sqrt(2.0), 1e-9);
-  // Two cycles of the first half not run: 2 and 4 held out against fits on 4 cycles each.
+
+  // Folds that agree (mean 0.25 each): the within-fold variance, 0.1 / 6, alone.
+  gainsOf({0.1, 0.2, 0.3, 0.4, 0.4, 0.3, 0.2, 0.1});
+  const HeldOutComparison agree = compareHeldOut(grid, strokes, base, with, 0.05);
+  EXPECT_EQ(agree.cycles, 8);
+  EXPECT_NEAR(agree.t_statistic, -0.25 / std::sqrt(0.1 / 6.0 / 8.0), 1e-9);
+
+  // Folds that disagree (0.25 and 0.65): between them 4 (0.2^2 + 0.2^2) = 0.32 > 0.1 / 6, and for two
+  // equal folds the mean's variance is that over n. The naive t would be -5.2, this one is -2.25.
+  gainsOf({0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8});
+  const HeldOutComparison disagree = compareHeldOut(grid, strokes, base, with, 0.05);
+  EXPECT_NEAR(disagree.t_statistic, -0.45 / std::sqrt(0.32 / 8.0), 1e-9);
+  EXPECT_GT(disagree.p_value, 0.01);
+
+  // Unequal folds (the first two cycles not run): n = 6, folds of 2 and 4 with means 0.35 and 0.65,
+  // within 0.055 / 4, between 2 (0.2)^2 + 4 (0.1)^2 = 0.12, n0 = 6 - 20 / 6, the folds' share 20 / 36.
   with.cycle_rms[0] = with.cycle_rms[1] = std::nan("");
-  const HeldOutComparison fewer = compareHeldOut(grid, strokes, base, with, 0.05);
-  EXPECT_EQ(fewer.cycles, 6);
-  EXPECT_NEAR(fewer.t_statistic, naiveT({2, 3, 4, 5, 6, 7}) / std::sqrt(1.0 + 4.0 / 24.0 + 16.0 / 24.0),
-              1e-9);
-  EXPECT_LT(fewer.p_value, 0.05);
+  const HeldOutComparison unequal = compareHeldOut(grid, strokes, base, with, 0.05);
+  EXPECT_EQ(unequal.cycles, 6);
+  const double within = 0.055 / 4.0, shared = (0.12 - within) / (6.0 - 20.0 / 6.0);
+  EXPECT_NEAR(unequal.t_statistic, -0.55 / std::sqrt(within / 6.0 + shared * 20.0 / 36.0), 1e-9);
+
+  // Only the first fold held out: its cycles all share one fit, which cannot be measured; the naive
+  // variance doubled (1 + 4 * 4 / (4 * 4)), Nadeau and Bengio's bound.
+  gainsOf({0.1, 0.2, 0.3, 0.4, 0.0, 0.0, 0.0, 0.0});
+  for (int c = 4; c < 8; ++c) with.cycle_rms[c] = std::nan("");
+  const HeldOutComparison one_fold = compareHeldOut(grid, strokes, base, with, 0.05);
+  EXPECT_EQ(one_fold.cycles, 4);
+  EXPECT_NEAR(one_fold.t_statistic, -0.25 / std::sqrt(0.05 / 3.0 / 4.0 * 2.0), 1e-9);
 }
 
 TEST(EffectRanking, TheFoldsCombinedGiveTheFitOnAllCycles) {

@@ -154,7 +154,9 @@ TEST(OutputErrorRefinement, AFastPressWithAValveOverlapIsRefinedFromAPoorStart) 
     ASSERT_GT(start.updates, 0);
     const OutputErrorFit fit = refineByOutputError(r.grid, model, start.values(), start.standardDeviations(),
                                                    config.min_pressure, OutputErrorOptions());
-    if (press == PressClass::kFastMechanical) EXPECT_GT(fit.start_rms, 15.0 * fit.noise) << "the poor start";
+    if (press == PressClass::kFastMechanical) {
+      EXPECT_GT(fit.start_rms, 15.0 * fit.noise) << "the poor start";
+    }
     ASSERT_TRUE(fit.improved) << fit.message;
     EXPECT_LT(fit.rms, 2.0 * fit.noise);
     const ParameterVector truth = DieCushionSimulator(r.plant).trueParameters();
