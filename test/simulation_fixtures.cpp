@@ -25,11 +25,11 @@ SimulatorConfig randomPlant(std::uint64_t seed, const std::vector<std::string>& 
   return c;
 }
 
-Recording record(const SimulatorConfig& plant, int cycles) {
+Recording record(const SimulatorConfig& plant, int cycles, const UniformResampler::Config& resampler) {
   Recording r;
   r.plant = plant;
   DieCushionSimulator simulator(plant);
-  r.grid = simulateGrid(simulator, cycles * simulator.program().cycleDuration());
+  r.grid = simulateGrid(simulator, cycles * simulator.program().cycleDuration(), resampler);
   r.strokes = segmentStrokes(r.grid);
   return r;
 }

@@ -35,8 +35,9 @@ struct Recording {
   double truth(const std::string& name) const { return plant.parameters.at(name); }
 };
 
-/// `cycles` press cycles of `plant`.
-Recording record(const SimulatorConfig& plant, int cycles = 8);
+/// `cycles` press cycles of `plant`, on the grid `resampler` makes (default: 2 ms, its points at k T).
+Recording record(const SimulatorConfig& plant, int cycles = 8,
+                 const UniformResampler::Config& resampler = {});
 
 /// Value of a named estimate; fails the calling test if absent.
 double estimateOf(const HydraulicEstimate& estimate, const std::string& name);

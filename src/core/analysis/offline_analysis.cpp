@@ -62,7 +62,8 @@ OfflineAnalysis::OfflineAnalysis(const IdentificationConfig& config)
       pipeline_(config),
       grid_(static_cast<std::size_t>(config.max_analysed_samples), leadInSamples(config)) {
   config_.refine_held_out_fits = true;
-  pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0]);
+  pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0],
+                             config_.resampler.grid_phase);
   pipeline_.setGridCallback([this](const GridSample& g, const HydraulicIdentifier&) {
     coverage_.add(g);
     grid_.push(g);

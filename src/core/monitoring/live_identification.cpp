@@ -111,7 +111,8 @@ void LiveIdentification::rebuild() {
   // The slow oil temperature is not lost with the old pipeline (its next message may be seconds away).
   if (pipeline_) next->adoptOilTemperature(pipeline_->oilTemperature());
   pipeline_ = std::move(next);
-  pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0]);
+  pressure_noise_.followGrid(config_.resampler.sample_period, config_.appliedTopicDelays()[0],
+                             config_.resampler.grid_phase);
   pipeline_->setGridCallback(
       [this](const GridSample& g, const HydraulicIdentifier& identifier) { onGridSample(g, identifier); });
   // The scatter over many press cycles: 50 s (19 cycles of the paper's press; with 20-40 s the coverage

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
+#include <functional>
 #include <future>
 #include <random>
 #include <unordered_map>
@@ -16,6 +17,7 @@
 #include "die_cushion_ident/core/fits/output_error_refinement.h"
 #include "die_cushion_ident/core/model/effect_library.h"
 #include "die_cushion_ident/core/signal/message_noise.h"
+#include "die_cushion_ident/core/signal/message_phase.h"
 #include "die_cushion_ident/core/signal/white_noise_estimator.h"
 #include "die_cushion_ident/core/util/formatted.h"
 #include "die_cushion_ident/core/util/parallel_for.h"
@@ -201,6 +203,61 @@ void addSetting(SettingsChoice& choice, const std::string& key, double value, co
   choice.settings.push_back(setting);
 }
 
+// The grid's points on the position's messages (their stamps as corrected by the clock offsets) where they
+// carry the velocity, the cushion's impact is short against them and the period chosen is theirs or finer:
+// the free run integrates the cushion's motion between grid points, and a cubic through messages that fall
+// between them misreads a fast press's 4 ms impact by up to 1 % of its speed, in a pattern that moved its
+// bulk modulus by up to 1.2 % as the same recording's stamps were moved by 0.3-0.7 ms (doc/resolution.md,
+// "Where the messages fall between the grid's points"). On a coarser grid (a slow press at 2 ms) the motion
+// is slow against the period and the grid stays at k T. The phase is taken modulo the study's period nearest
+// the messages' interval (2 ms halved: on any of the study's grids every point, or every other, is then a
+// message), and only where the messages keep it (coherence of at least 0.9: jitter below about 7 % of the
+// period, a rate on it). Where the velocity is derived, the free run reads the position's own cubic, whose
+// integral over each interval is its change: the grid's phase then only decides how much of the position's
+// noise its samples hold (all of it on the messages; a large soft press's bulk modulus moved +0.3 %, its free
+// run 1.25 -> 1.38 times the noise), and the grid stays too.
+constexpr double kPhaseCoherence = 0.9;
+// Only where the motion changes within a few messages (an impact shorter than about eight message
+// intervals: the velocity steps by more than a fifth of its range from one message to the next; a cosine
+// ramp over T steps by pi h / (2 T) of it): a fast press's 3-5 ms impact steps 31-52 % at 1 kHz, a small
+// stiff press's 15 ms 10 %, the slow and large soft presses' 20-30 ms 5-8 %. Slower motions are read
+// between messages as well as on them, and a grid moved off the valve's commands costs a slow press its
+// 2 ms (its commands then switch inside the grid's intervals, which the free run resolves less well).
+constexpr double kImpactStep = 0.2;
+constexpr std::size_t kLargestSteps = 5;
+
+std::optional<MessagePhase> motionPhase(const Messages& messages, const SettingsChoice& choice,
+                                        double chosen_period) {
+  constexpr int kX = static_cast<int>(InputStream::kPosition);
+  const double interval = choice.survey.message_interval[kX];
+  if (!(interval > 0.0) || chosen_period > 1.1 * interval) return std::nullopt;
+  const double period = kCoarsestPeriod * std::exp2(std::round(std::log2(interval / kCoarsestPeriod)));
+  if (std::abs(interval / period - 1.0) > 0.05) return std::nullopt;
+  const double delay = choice.config.appliedTopicDelays()[kX];
+  std::vector<double> stamps, speeds, steps;
+  double last_stamp = NAN, last_speed = NAN;
+  for (const auto& [stream, m] : messages) {
+    if (stream != InputStream::kPosition || !std::isfinite(m.first)) continue;
+    stamps.push_back(m.stamp - delay);
+    if (!std::isfinite(m.second)) continue;
+    speeds.push_back(std::abs(m.second));
+    if (m.stamp - last_stamp <= 1.5 * interval && std::isfinite(last_speed))
+      steps.push_back(std::abs(m.second - last_speed));
+    last_stamp = m.stamp;
+    last_speed = m.second;
+  }
+  if (speeds.size() * 2 < stamps.size() || steps.size() < kLargestSteps) return std::nullopt;
+  // How far the motion changes from one message to the next: the 5th largest step (a few wild messages
+  // aside) against the 99th percentile of the speed.
+  std::nth_element(steps.begin(), steps.begin() + (kLargestSteps - 1), steps.end(), std::greater<double>());
+  const std::size_t p99 = speeds.size() * 99 / 100;
+  std::nth_element(speeds.begin(), speeds.begin() + static_cast<std::ptrdiff_t>(p99), speeds.end());
+  if (!(steps[kLargestSteps - 1] > kImpactStep * speeds[p99])) return std::nullopt;
+  const MessagePhase phase = messagePhase(stamps, period);
+  if (!(phase.coherence >= kPhaseCoherence)) return std::nullopt;
+  return phase;
+}
+
 // The configured values are kept, and the sample period judged against the study.
 void keepConfigured(const IdentificationConfig& configured_config, const std::set<std::string>& configured,
                     double allowed_change, double noise, double chosen_period, SettingsChoice& choice) {
@@ -340,8 +397,24 @@ SettingsChoice SettingsFromRecording::choose() const {
     searchClockOffsets(messages_, periods.back(), valve_configured, jobs_, choice);
   if (valve_fit.valid()) adoptValveFit(valve_fit.get(), valve_configured, choice);
   choice.seconds_spent_on.valve_model = valve_seconds;
+  const SettingsChoice before_study = choice;
   ResolutionStudy study(messages_, periods, jobs_, choice);
-  const StudyOutcome outcome = study.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
+  StudyOutcome outcome = study.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
+  // Where the grid goes on the position's messages, the study runs again on that grid: its offset refinement
+  // and its free runs then read the position where it was measured, as the analysis will.
+  if (const std::optional<MessagePhase> phase = motionPhase(messages_, before_study, outcome.chosen_period)) {
+    const auto first_study = choice.seconds_spent_on;
+    choice = before_study;
+    choice.seconds_spent_on = first_study;
+    choice.config.resampler.grid_phase = phase->phase;
+    ResolutionStudy on_the_messages(messages_, periods, jobs_, choice);
+    outcome = on_the_messages.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
+    addSetting(
+        choice, "grid_phase", phase->phase,
+        formatted(FMT_STRING("the position's messages' phase within their period (coherence {:.3f}): the "
+                             "cushion's motion is read where it was measured"),
+                  phase->coherence));
+  }
   const IdentificationConfig chosen = atPeriod(choice.config, outcome.chosen_period, outcome.shortest_drawing);
   addSetting(choice, "sample_period", outcome.chosen_period, periodReason(outcome, choice, finest_interval, noise));
   const std::string window_reason =

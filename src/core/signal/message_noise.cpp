@@ -7,9 +7,19 @@ namespace die_cushion_ident {
 namespace {
 // A gap longer than this is a pause (or a loop), not the topic's rate.
 constexpr double kLongestInterval = 1.0;  // [s]
-// Grid samples closer than this many message intervals are often interpolated from a common message (up to
-// 2 with the stamps' jitter; at 2 they share one only where a stamp jitters across a grid point).
-constexpr double kSharedBelow = 1.8;
+// Grid samples closer than this many message intervals are often interpolated from a common message: the
+// resampler's cubic reads four (UniformResampler), so samples up to 4 intervals apart (less the stamps'
+// jitter) share one.
+constexpr double kSharedBelow = 3.8;
+
+// The noise variance a sample holds, in units of a message's, a fraction w of the way between two messages
+// of a cubic through four (Catmull-Rom's weights on even stamps; the stamps' jitter changes them little).
+double cubicShare(double w) {
+  const double w2 = w * w, w3 = w2 * w;
+  const double before = 0.5 * (-w3 + 2.0 * w2 - w), from = 0.5 * (3.0 * w3 - 5.0 * w2 + 2.0);
+  const double to = 0.5 * (-3.0 * w3 + 4.0 * w2 + w), after = 0.5 * (w3 - w2);
+  return before * before + from * from + to * to + after * after;
+}
 // More grid points between two messages than this are a grid far finer than any sensor: not followed.
 constexpr double kMostGridPoints = 1e5;
 }  // namespace
@@ -38,19 +48,21 @@ double MessageNoise::meanInterval() const {
                         : std::numeric_limits<double>::quiet_NaN();
 }
 
-void MessageNoise::followGrid(double period, double stamp_offset) {
+void MessageNoise::followGrid(double period, double stamp_offset, double phase) {
   grid_period_ = period > 0.0 ? period : 0.0;
-  grid_offset_ = std::isfinite(stamp_offset) ? stamp_offset : 0.0;
+  // The grid's points t_k = k period + phase are met as the points k period of stamps moved by the phase.
+  grid_offset_ = (std::isfinite(stamp_offset) ? stamp_offset : 0.0) + (std::isfinite(phase) ? phase : 0.0);
   share_sum_ = 0.0;
   shares_ = 0;
 }
 
 void MessageNoise::addGridShares(double from, double to) {
   if (!(grid_period_ > 0.0)) return;
-  // The grid points t_k = k * period (as UniformResampler computes them) in (from, to], each counted once:
-  // the simulator's stamps lie on grid points often, and a quotient that rounds across an integer counted
-  // such a point twice or not at all. A point on a message's stamp holds that message alone (w = 1).
-  // Counted with an integer: stamps far from 0 (a fuzzed 1e20 s) leave k * period unable to step.
+  // The grid points t_k = k * period (as UniformResampler computes them, its phase in the offset) in (from,
+  // to], each counted once: the simulator's stamps lie on grid points often, and a quotient that rounds
+  // across an integer counted such a point twice or not at all. A point on a message's stamp holds that
+  // message alone (w = 1). Counted with an integer: stamps far from 0 (a fuzzed 1e20 s) leave k * period
+  // unable to step.
   double first = std::floor(from / grid_period_) + 1.0, last = std::floor(to / grid_period_);
   if (!(last - first <= kMostGridPoints && first - last <= 2.0)) return;
   if (first * grid_period_ <= from) first += 1.0;
@@ -61,7 +73,7 @@ void MessageNoise::addGridShares(double from, double to) {
   const long points = static_cast<long>(last - first) + 1;
   for (long i = 0; i < points; ++i) {
     const double w = ((first + static_cast<double>(i)) * grid_period_ - from) / (to - from);
-    share_sum_ += w * w + (1.0 - w) * (1.0 - w);
+    share_sum_ += cubicShare(w);
     ++shares_;
   }
 }

@@ -28,10 +28,16 @@ const char* inputStreamName(InputStream stream) {
   return "?";
 }
 
-UniformResampler::UniformResampler(const Config& config) : config_(config) {
+UniformResampler::UniformResampler(const Config& config)
+    : config_(config),
+      phase_(std::isfinite(config.grid_phase)
+                 ? config.grid_phase -
+                       std::floor(config.grid_phase / config.sample_period) * config.sample_period
+                 : 0.0) {
   if (!(config.sample_period > 0.0) || !std::isfinite(config.sample_period)) {
     throw std::invalid_argument("sample_period must be > 0 s");
   }
+  if (!std::isfinite(config.grid_phase)) throw std::invalid_argument("grid_phase must be finite");
   if (!(config.max_gap > config.sample_period))
     throw std::invalid_argument("max_gap must exceed sample_period");
   if (!(config.stale_timeout >= config.max_gap))
@@ -159,7 +165,7 @@ UniformResampler::PushResult UniformResampler::accept(InputStream stream, const 
   if (!std::isfinite(stored.second)) stored.second = kNaN;  // "not measured"
   ++h.accepted;
   if (c.has_any) updateIntervalStatistics(h, stored.stamp - h.last_stamp);
-  if (grid_started_ && stored.stamp < (next_index_ - 1) * config_.sample_period) ++h.late;
+  if (grid_started_ && stored.stamp < gridTime(next_index_ - 1)) ++h.late;
   c.buffer.push_back(stored);
   c.has_any = true;
   h.last_stamp = stored.stamp;
@@ -174,6 +180,14 @@ UniformResampler::PushResult UniformResampler::accept(InputStream stream, const 
 void UniformResampler::flush(std::vector<GridSample>* out) { emitReady(out, Emit::kFlushing); }
 
 namespace {
+// The pressure and the position are read between their messages by a cubic: a line through them misses
+// their curvature, the pressure's at a fast press's 4 ms impact by a few tenths of a bar where its messages
+// fall between the grid's points.
+bool interpolatedByCubic(int stream) {
+  return stream == static_cast<int>(InputStream::kPressure) ||
+         stream == static_cast<int>(InputStream::kPosition);
+}
+
 // The cubic Hermite between messages a and b at w in [0, 1], its slopes the secants through the neighbours
 // (Catmull-Rom on the messages' own, uneven stamps; the chord a-b where a neighbour is missing or not
 // finite).
@@ -204,7 +218,7 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
       const double w = (t - a.stamp) / (b.stamp - a.stamp);
       // The valve voltage is in force from its stamp on (held by the amplifier), so it is held, not
       // interpolated: interpolation would lead the real command by half a message period.
-      if (stream == static_cast<int>(InputStream::kPosition)) {
+      if (interpolatedByCubic(stream)) {
         const StreamSample* before =
             i > 0 && a.stamp - buffer[i - 1].stamp <= config_.max_gap ? &buffer[i - 1] : nullptr;
         const StreamSample* after = i + 2 < buffer.size() && buffer[i + 2].stamp - b.stamp <= config_.max_gap
@@ -231,6 +245,14 @@ bool UniformResampler::interpolate(int stream, double t, double* first, double* 
   *second = kNaN;
   if (third) *third = kNaN;
   return false;
+}
+
+double UniformResampler::gridTime(std::int64_t index) const {
+  return static_cast<double>(index) * config_.sample_period + phase_;
+}
+
+std::int64_t UniformResampler::firstIndexAtOrAfter(double t) const {
+  return static_cast<std::int64_t>(std::ceil((t - phase_) / config_.sample_period - 1e-9));
 }
 
 double UniformResampler::lead(int stream) const {
@@ -326,7 +348,7 @@ bool UniformResampler::startGrid(bool flushing) {
   if (speaking == 0) return false;
   if (speaking < kInputStreamCount && newest_stamp_ - earliest_first < config_.stale_timeout && !flushing)
     return false;
-  next_index_ = static_cast<std::int64_t>(std::ceil(latest_first / config_.sample_period - 1e-9));
+  next_index_ = firstIndexAtOrAfter(latest_first);
   grid_started_ = true;
   return true;
 }
@@ -359,8 +381,8 @@ void UniformResampler::dropMessagesBefore(double t_next) {
   for (int s = 0; s < kInputStreamCount; ++s) {
     auto& buffer = channels_[s].buffer;
     const double keep_from = t_next - history(s);
-    // The position keeps one message more: the neighbour before the bracket, for its cubic.
-    const std::size_t kept = s == static_cast<int>(InputStream::kPosition) ? 2 : 1;
+    // The pressure and the position keep one message more: the neighbour before the bracket, for the cubic.
+    const std::size_t kept = interpolatedByCubic(s) ? 2 : 1;
     while (buffer.size() >= kept + 1 && buffer[kept].stamp <= keep_from) buffer.pop_front();
   }
 }
@@ -370,7 +392,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, Emit mode) {
   const double dt = config_.sample_period;
   if (!grid_started_ && !startGrid(flushing)) return;
   for (;;) {
-    const double t = static_cast<double>(next_index_) * dt;
+    const double t = gridTime(next_index_);
     bool must_wait = false;
     bool any_bracketed = false;
     double resume = std::numeric_limits<double>::infinity();
@@ -384,8 +406,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, Emit mode) {
       // The position's cubic waits for the neighbour after the bracket too, unless the grid is being closed
       // or the stream has fallen silent (then the chord ends it, as at the end of a recording).
       const bool has_future =
-          reaches && (mode != Emit::kLive || s != static_cast<int>(InputStream::kPosition) ||
-                      std::next(ahead) != c.buffer.end() ||
+          reaches && (mode != Emit::kLive || !interpolatedByCubic(s) || std::next(ahead) != c.buffer.end() ||
                       newest_stamp_ - c.buffer.back().stamp >= config_.stale_timeout);
       if (has_future) {
         if (ahead != c.buffer.end()) resume = std::min(resume, ahead->stamp);
@@ -406,7 +427,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, Emit mode) {
       if (!std::isfinite(resume)) return;  // nothing ahead of t at all: wait for data
       if (resume - t > config_.restart_jump) {
         // A long silence in every stream: jump the grid rather than emit hours of empty samples.
-        next_index_ = static_cast<std::int64_t>(std::ceil(resume / dt - 1e-9));
+        next_index_ = firstIndexAtOrAfter(resume);
         pending_discontinuity_ = true;
         continue;
       }
@@ -416,7 +437,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, Emit mode) {
     pending_discontinuity_ = false;
     out->push_back(g);
     ++next_index_;
-    dropMessagesBefore(static_cast<double>(next_index_) * dt);
+    dropMessagesBefore(gridTime(next_index_));
   }
 }
 

@@ -145,9 +145,22 @@ TEST(OutputErrorRefinement, AFastPressWithAValveOverlapIsRefinedFromAPoorStart) 
                                                           {PressClass::kSmallStiff, 31}};
   for (const auto& [press, variation] : presses) {
     SCOPED_TRACE(std::string(pressClassName(press)) + " variation " + std::to_string(variation));
-    const die_cushion_ident::testing::Recording r =
-        die_cushion_ident::testing::record(pressClassPlant(press, variation, {"valve_overlap"}, 7), 8);
-    const IdentificationConfig config = die_cushion_ident::testing::configFor(r.plant, {"valve_overlap"});
+    // Read as the analysis reads these presses: a fast one at 1 ms with its grid on the position's messages
+    // (which the simulator stamps 0.3 of a period after the others), a small stiff one at 2 ms.
+    const bool fast = press == PressClass::kFastMechanical;
+    UniformResampler::Config resampler;
+    if (fast) {
+      resampler.sample_period = 1e-3;
+      resampler.grid_phase = 0.3e-3;
+    }
+    const die_cushion_ident::testing::Recording r = die_cushion_ident::testing::record(
+        pressClassPlant(press, variation, {"valve_overlap"}, 7), 8, resampler);
+    IdentificationConfig config = die_cushion_ident::testing::configFor(r.plant, {"valve_overlap"});
+    if (fast) {
+      config.resampler = resampler;
+      config.moving_average_width = 63;
+      config.derivative_width = 51;
+    }
     const HydraulicModel model =
         HydraulicModel::fromNames(config.geometry, config.effects, config.custom_effects, config.oil);
     const HydraulicEstimate start = fitOnCycles(r.grid, r.strokes, config, INT_MIN, INT_MAX);

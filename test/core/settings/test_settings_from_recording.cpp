@@ -189,3 +189,32 @@ TEST(SettingsFromRecording, NothingToStudyKeepsThePapersSettings) {
   EXPECT_NE(setting(c, "sample_period").reason.find("nothing to identify"), std::string::npos);
   EXPECT_TRUE(c.study.empty());
 }
+
+// The grid's points on the position's messages where they carry the velocity and the impact is short
+// against them (a fast press): the simulator stamps the position 0.3 of a period after the pressure (plus its
+// quantised jitter), with the clocks agreeing or the position 10 ms late (then corrected by the clock offset
+// first). A small stiff press's 15 ms impact keeps the grid at k T (and its 2 ms); so does a derived
+// velocity, and a rate off the study's periods has no phase to keep.
+TEST(SettingsFromRecording, TheGridsPointsFallOnThePositionsMessagesWhereTheImpactIsShort) {
+  for (const double late : {0.0, 0.010}) {
+    const SimulatorConfig plant = pressClassPlant(PressClass::kFastMechanical);
+    const SettingsChoice c = surveyed(plant, {}, IdentificationConfig(), late);
+    const double period = 1.0 / plant.sensors.position_rate;
+    // The stamps as the pipeline corrects them (less the estimated offset), modulo the position's period.
+    const double phase = c.config.resampler.grid_phase;
+    const double corrected = 0.3 * period + late - c.config.appliedTopicDelays()[1];
+    EXPECT_NEAR(setting(c, "grid_phase").value, phase, 1e-12);
+    EXPECT_NEAR(std::remainder(phase - corrected, period), 0.0, 0.1 * period)
+        << "late " << late << ": " << setting(c, "grid_phase").reason;
+    EXPECT_DOUBLE_EQ(c.config.resampler.sample_period, 0.001);
+  }
+  const SettingsChoice stiff = surveyed(pressClassPlant(PressClass::kSmallStiff));
+  EXPECT_EQ(stiff.config.resampler.grid_phase, 0.0);
+  EXPECT_THROW(setting(stiff, "grid_phase"), std::runtime_error);
+  SimulatorConfig derived = pressClassPlant(PressClass::kFastMechanical);
+  derived.sensors.publish_velocity = false;
+  EXPECT_EQ(surveyed(derived).config.resampler.grid_phase, 0.0);
+  SimulatorConfig off_rate = pressClassPlant(PressClass::kFastMechanical);
+  off_rate.sensors.position_rate = 800.0;  // 1.25 ms: no study period is its interval
+  EXPECT_EQ(surveyed(off_rate).config.resampler.grid_phase, 0.0);
+}

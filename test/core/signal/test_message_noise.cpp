@@ -4,8 +4,12 @@
 #include <random>
 
 #include "die_cushion_ident/core/signal/message_noise.h"
+#include "die_cushion_ident/core/signal/uniform_resampler.h"
 
+using die_cushion_ident::GridSample;
+using die_cushion_ident::InputStream;
 using die_cushion_ident::MessageNoise;
+using die_cushion_ident::UniformResampler;
 using die_cushion_ident::WhiteNoiseEstimator;
 
 namespace {
@@ -50,41 +54,46 @@ TEST(MessageNoise, AGridBetweenTheMessagesIsJudgedByTheSensorsNoise) {
   }
   EXPECT_LT(on_grid.sigma(), 0.5 * kSigma) << "the interpolated grid's own estimate";
   EXPECT_NEAR(messages.forGrid(0.5e-3), kSigma, 0.05 * kSigma) << "no grid followed: the sensor's";
-  EXPECT_EQ(messages.forGrid(2e-3), 0.0) << "samples two messages apart share none: the grid's own estimate";
+  EXPECT_NEAR(messages.forGrid(2e-3), kSigma, 0.05 * kSigma)
+      << "samples two messages apart share two of the cubic's four: the sensor's";
+  EXPECT_EQ(messages.forGrid(4e-3), 0.0) << "samples four messages apart share none: the grid's own estimate";
 }
 
-// What each grid sample holds: at 0.5 ms from 1 kHz every second sample is the mean of two messages
-// (sigma^2 / 2), the others a message (sigma^2): sqrt(3/4) of the sensor's sigma on average. The grid's
-// second differences see far less; the samples' own spread is the reference.
+// What each grid sample holds, measured on the resampler's own grid (pure noise as the pressure): a sample
+// on a message holds its sigma, one between two messages the cubic's weighted four (0.64 of the variance
+// at the middle). The grid's second differences see far less; the samples' own spread is the reference, on
+// grids at 0.5, 1 and 2 ms, on the messages and between them (grid_phase).
 TEST(MessageNoise, AFollowedGridIsJudgedByTheNoiseItsSamplesHold) {
-  std::mt19937 rng(9);
-  std::normal_distribution<double> noise(0.0, kSigma);
-  std::normal_distribution<double> jitter(0.0, 50e-6);  // the simulator's sampling jitter
-  for (const double period : {0.5e-3, 1e-3}) {
-    MessageNoise messages;
-    messages.followGrid(period, 0.0);
-    double a_stamp = NAN, a_noise = 0.0, sum_squares = 0.0;
-    long samples = 0;
-    double next_grid = 0.0;
-    for (int i = 0; i < 40000; ++i) {
-      const double stamp = i * kInterval + jitter(rng), n = noise(rng);
-      messages.add(stamp, smooth(stamp) + n);
-      for (; std::isfinite(a_stamp) && next_grid <= stamp; next_grid += period) {
-        if (next_grid <= a_stamp) continue;
-        const double w = (next_grid - a_stamp) / (stamp - a_stamp);
-        const double held = a_noise + w * (n - a_noise);
-        sum_squares += held * held;
-        ++samples;
+  for (const double period : {0.5e-3, 1e-3, 2e-3}) {
+    for (const double phase : {0.0, 0.35e-3}) {
+      std::mt19937 rng(9);
+      std::normal_distribution<double> noise(0.0, kSigma);
+      std::normal_distribution<double> jitter(0.0, 50e-6);  // the simulator's sampling jitter
+      MessageNoise messages;
+      messages.followGrid(period, 0.0, phase);
+      UniformResampler::Config config;
+      config.sample_period = period;
+      config.grid_phase = phase;
+      UniformResampler resampler(config);
+      std::vector<GridSample> grid;
+      for (int i = 0; i < 40000; ++i) {
+        const double stamp = i * kInterval + jitter(rng), n = noise(rng);
+        messages.add(stamp, n);
+        resampler.push(InputStream::kPressure, {stamp, n, NAN}, &grid);
+        resampler.push(InputStream::kPosition, {i * kInterval, 0.1, 0.0}, &grid);
+        resampler.push(InputStream::kValve, {i * kInterval, 0.0, 0.0}, &grid);
       }
-      a_stamp = stamp;
-      a_noise = n;
-    }
-    const double held_rms = std::sqrt(sum_squares / static_cast<double>(samples));
-    EXPECT_NEAR(messages.forGrid(period), held_rms, 0.03 * kSigma) << period;
-    if (period == 0.5e-3) {
-      EXPECT_NEAR(messages.gridShare(), std::sqrt(0.75), 0.02);
-    } else {
-      EXPECT_GT(messages.gridShare(), 0.85) << "50 us of jitter against 1 ms: mostly a message";
+      double sum_squares = 0.0;
+      for (const GridSample& g : grid) sum_squares += static_cast<double>(g.p) * g.p;
+      const double held_rms = std::sqrt(sum_squares / static_cast<double>(grid.size()));
+      EXPECT_NEAR(messages.forGrid(period), held_rms, 0.03 * kSigma) << period << " phase " << phase;
+      if (period == 0.5e-3) {
+        EXPECT_NEAR(messages.gridShare(), std::sqrt(0.5 * (1.0 + 0.640625)), 0.02) << "a message, a middle";
+      } else if (phase == 0.0) {
+        EXPECT_GT(messages.gridShare(), 0.9) << "50 us of jitter against 1 ms: mostly a message";
+      } else {
+        EXPECT_LT(messages.gridShare(), 0.9) << "0.35 of the way between messages";
+      }
     }
   }
 }
@@ -99,8 +108,8 @@ TEST(MessageNoise, GridPointsOnTheMessagesStampsAreCountedOnce) {
   for (int i = 0; i < 100000; ++i) messages.add(1.7e9 + i * kInterval, smooth(i * kInterval));
   // 1e-4: the stamps themselves are rounded to 0.24 us at 1.7e9 s; the quotient's rounding lost 1600 of the
   // 200000 points and read 1.2e-3 low.
-  EXPECT_NEAR(messages.gridShare(), std::sqrt(0.75), 1e-4)
-      << "every second point a message, every other a mean";
+  EXPECT_NEAR(messages.gridShare(), std::sqrt(0.5 * (1.0 + 0.640625)), 1e-4)
+      << "every second point a message, every other the cubic's middle";
 }
 
 TEST(MessageNoise, SkipsNonFiniteSamplesAndStartsOverWhereTheStampsJumpBack) {

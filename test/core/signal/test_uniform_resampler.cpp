@@ -445,3 +445,38 @@ TEST(UniformResampler, ThePositionsCubicWaitsForTheNextMessageAndLosesNothing) {
   EXPECT_NEAR(end.back().t, 0.010, 1e-9);
   EXPECT_TRUE(std::isfinite(end.back().x));
 }
+
+// A grid put on the position's messages (grid_phase): its points are k T + phase, the position is read
+// where it was measured, and the pressure between its own messages by the cubic through four, which
+// reproduces a parabola (a line through two missed its curvature: 0.25 of a period's squared curvature
+// at the interval's middle).
+TEST(UniformResampler, AGridOnThePositionsMessagesReadsThemWhereTheyWereMeasured) {
+  UniformResampler::Config c;
+  c.sample_period = 0.001;
+  c.grid_phase = 0.0023;  // taken modulo the period: 0.3 ms
+  UniformResampler r(c);
+  const auto pressure = [](double t) { return 50e5 + 1e8 * (t - 0.5) * (t - 0.5); };
+  const auto position = [](double t) { return 0.1 + 0.05 * std::sin(10.0 * t); };
+  std::vector<GridSample> out;
+  for (int i = 0; i < 1000; ++i) {
+    const double t = 1e-3 * i;
+    r.push(InputStream::kPressure, {t, pressure(t), kNaN}, &out);
+    r.push(InputStream::kPosition, {t + 0.3e-3, position(t + 0.3e-3), 0.5 * std::cos(10.0 * (t + 0.3e-3))},
+           &out);
+    r.push(InputStream::kValve, {t, 1.0, 0.1}, &out);
+  }
+  r.flush(&out);
+  ASSERT_GT(out.size(), 900u);
+  for (std::size_t i = 2; i + 2 < out.size(); ++i) {
+    const GridSample& g = out[i];
+    ASSERT_NEAR(std::remainder(g.t - 0.3e-3, 0.001), 0.0, 1e-12) << "points at k T + phase";
+    EXPECT_NEAR(g.x, position(g.t), 1e-6) << "the position's own message, in single precision";
+    EXPECT_NEAR(g.p, pressure(g.t), 5.0) << "the parabola through the cubic, at " << g.t;
+  }
+  EXPECT_THROW(UniformResampler([] {
+                 UniformResampler::Config bad;
+                 bad.grid_phase = std::nan("");
+                 return bad;
+               }()),
+               std::invalid_argument);
+}

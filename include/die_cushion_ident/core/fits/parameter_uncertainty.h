@@ -33,9 +33,9 @@ namespace die_cushion_ident {
 ///    model's own free run (equationErrorBias): the equation error's own bias at the model (its filter
 ///    windows against a fast press's impact) is no disagreement of the estimators.
 /// Over 250 recordings of every press class x sensor configuration x effect (scripts/uncertainty_calibration,
-/// seeds 20261125-20261127, 2026-12-07), pooled over the three draws, each press class had median
-/// |error| / std 0.61-0.75 and 92.3-95.8 % within 1.96 std; short: the fast press (92.3 %), the valve overlap
-/// (92.7 %) and the position at 500 Hz (88.9 %, doc/equations.md).
+/// seeds 20261125-20261127, 2026-12-08), pooled over the three draws, each press class had median
+/// |error| / std 0.62-0.74 and 94.7-96.0 % within 1.96 std; short: the valve overlap (92.2 %) and the
+/// position at 500 Hz (90.0 %, doc/equations.md).
 struct ParameterUncertainty {
   double regression = 0.0;
   double cycles = 0.0;

@@ -25,19 +25,20 @@ class MessageNoise {
   double sigma() const { return noise_.sigma(); }
   /// The mean interval between consecutive messages [s]; NaN until two.
   double meanInterval() const;
-  /// Follows the grid t_k = k * period from the next message on: how far each grid point lies between the
-  /// two messages it is interpolated from (forGrid). `stamp_offset` [s] is what the pipeline subtracts from
-  /// the messages' stamps before resampling (the topic's delay), so that the grid is met on its own time
+  /// Follows the grid t_k = k * period + phase from the next message on: how far each grid point lies between
+  /// the two messages it is interpolated from (forGrid). `stamp_offset` [s] is what the pipeline subtracts
+  /// from the messages' stamps before resampling (the topic's delay), so that the grid is met on its own time
   /// base. A new grid starts the count over.
-  void followGrid(double period, double stamp_offset);
+  void followGrid(double period, double stamp_offset, double phase = 0.0);
   /// The noise a grid of this period is to be compared with, where neighbouring grid samples share messages
-  /// (a period below 1.8 message intervals): their second differences then read the noise low (7 times at
-  /// 0.5 ms from 1 kHz, 10 % at 1 ms from 1 kHz with 50 us of jitter). It is the noise each grid sample
-  /// holds: a sample a fraction w of the way from one message to the next holds sigma^2 (w^2 + (1 - w)^2), so
-  /// the sensor's sigma times the root mean of that over the followed grid (the sensor's sigma where the grid
-  /// is not followed). 0 where the samples do not share messages: the grid's own estimate is then unbiased.
+  /// (a period below 3.8 message intervals: the resampler's cubic reads four): their second differences then
+  /// read the noise low (7 times at 0.5 ms from 1 kHz). It is the noise each grid sample holds: a sample a
+  /// fraction w of the way from one message to the next holds sigma^2 times the sum of the cubic's squared
+  /// weights (1 at w = 0, 0.64 at w = 0.5), so the sensor's sigma times the root mean of that over the
+  /// followed grid (the sensor's sigma where the grid is not followed). 0 where the samples do not share
+  /// messages: the grid's own estimate is then unbiased.
   double forGrid(double sample_period) const;
-  /// The root mean of w^2 + (1 - w)^2 over the followed grid's points so far (1 before any).
+  /// The root mean of the cubic's squared weights over the followed grid's points so far (1 before any).
   double gridShare() const;
 
  private:

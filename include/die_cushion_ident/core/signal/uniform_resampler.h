@@ -29,11 +29,12 @@ struct StreamSample {
 };
 
 /// One sample on the uniform grid. Channels of a stream that was stale or inside a gap are NaN and
-/// `complete` is false; `discontinuity` marks the first sample after the grid was restarted. Streams are
-/// interpolated linearly, except the valve voltage u, which is held from its stamp on (the amplifier holds
-/// it). The channels are stored in single precision (56 bytes a sample instead of 104: an hour of grid is
-/// 101 MB, not 187): its 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the
-/// sensors' noise; time stays double (microseconds of a Unix stamp need 16 digits).
+/// `complete` is false; `discontinuity` marks the first sample after the grid was restarted. The pressure and
+/// the position (with its velocity) are read between their messages by a cubic through four, the spool
+/// linearly, and the valve voltage u is held from its stamp on (the amplifier holds it). The channels are
+/// stored in single precision (56 bytes a sample instead of 104: an hour of grid is 101 MB, not 187): its
+/// 24-bit mantissa resolves 1 Pa at 160 bar and 0.03 um of stroke, far below the sensors' noise; time stays
+/// double (microseconds of a Unix stamp need 16 digits).
 struct GridSample {
   double t = 0.0;
   float p = 0.0f, x = 0.0f, v = 0.0f, u = 0.0f, y = 0.0f;
@@ -95,9 +96,10 @@ struct StreamHealth {
   double rate() const { return mean_interval > 0.0 ? 1.0 / mean_interval : 0.0; }
 };
 
-/// Resamples the three asynchronous input streams onto one grid t_k = k * sample_period by linear
-/// interpolation between the bracketing messages of each stream, so that the filters downstream see
-/// the constant sampling interval they assume.
+/// Resamples the three asynchronous input streams onto one grid t_k = k * sample_period + grid_phase by
+/// interpolation between the bracketing messages of each stream (a cubic through four for the pressure and
+/// the position: a line through two misses a fast press's impact by tenths of a bar), so that the filters
+/// downstream see the constant sampling interval they assume.
 ///
 /// A grid point is emitted once every live stream has a message at or after it. Intervals longer than
 /// max_gap are not interpolated across (the channels become NaN). A stream silent for stale_timeout while
@@ -118,6 +120,10 @@ class UniformResampler {
     double max_gap = 0.02;         ///< [s] longer message intervals are gaps
     double stale_timeout = 0.2;    ///< [s]
     double restart_jump = 1.0;     ///< [s]
+    /// [s] where the grid's points fall within a period: t_k = k sample_period + (grid_phase mod
+    /// sample_period). The survey sets it to the position messages' own phase, so that the stream the free
+    /// run integrates is read where it was measured (SettingsFromRecording).
+    double grid_phase = 0.0;
     /// Physically plausible range of each stream's first value (p [Pa], x [m], u [V]) and bound on the
     /// magnitude of its second (v [m/s], y [-]); outside is rejected and counted as implausible.
     struct Bounds {
@@ -184,6 +190,9 @@ class UniformResampler {
   /// How far past a grid point a stream must have spoken before the point is emitted: the valve half a
   /// sample, for the spool's mean over the interval around the point.
   double lead(int stream) const;
+  /// [s] the grid's point of index k, and the index of the first point at or after t.
+  double gridTime(std::int64_t index) const;
+  std::int64_t firstIndexAtOrAfter(double t) const;
   /// How far before a grid point a stream's messages are kept: the valve a whole sample, for the model
   /// spool's mean over the interval that ends at the point.
   double history(int stream) const;
@@ -202,6 +211,7 @@ class UniformResampler {
   bool grid_started_ = false;
   bool pending_discontinuity_ = false;
   std::int64_t next_index_ = 0;  // grid index of the next sample to emit
+  double phase_ = 0.0;           // [s] config_.grid_phase within [0, sample_period)
   std::uint64_t restarts_ = 0;
   struct Held {
     InputStream stream;
