@@ -409,8 +409,13 @@ SettingsChoice SettingsFromRecording::choose() const {
     choice.config.resampler.grid_phase = phase->phase;
     ResolutionStudy on_the_messages(messages_, periods, jobs_, choice);
     outcome = on_the_messages.run(allowed_change, noise, finest_interval, config_.resampler.sample_period);
+    // The study's free run may have refined the position's offset: the grid follows its corrected stamps.
+    constexpr int kX = static_cast<int>(InputStream::kPosition);
+    double& grid_phase = choice.config.resampler.grid_phase;
+    grid_phase -= choice.config.appliedTopicDelays()[kX] - before_study.config.appliedTopicDelays()[kX];
+    grid_phase -= std::floor(grid_phase / outcome.chosen_period) * outcome.chosen_period;
     addSetting(
-        choice, "grid_phase", phase->phase,
+        choice, "grid_phase", choice.config.resampler.grid_phase,
         formatted(FMT_STRING("the position's messages' phase within their period (coherence {:.3f}): the "
                              "cushion's motion is read where it was measured"),
                   phase->coherence));

@@ -126,14 +126,18 @@ double numericalError(const HydraulicModel& model, const ParameterVector& theta,
 // rms difference of two levels' free runs at the samples both have (the coarser grid's times lie on the
 // finer).
 double changeBetween(const Level& coarse, const Level& fine, double fine_period) {
+  if (fine.t.empty()) return std::numeric_limits<double>::quiet_NaN();
+  // Counted in fine periods from the fine grid's first point: a grid whose points lie half a period off k T
+  // (grid_phase) put t / period on .5, where rounding paired samples a period apart.
+  const double origin = fine.t.front();
   std::unordered_map<long long, double> at;
   at.reserve(fine.t.size());
   for (std::size_t i = 0; i < fine.t.size(); ++i)
-    at[std::llround(fine.t[i] / fine_period)] = fine.modelled[i];
+    at[std::llround((fine.t[i] - origin) / fine_period)] = fine.modelled[i];
   double sum = 0.0;
   std::size_t n = 0;
   for (std::size_t i = 0; i < coarse.t.size(); ++i) {
-    const auto it = at.find(std::llround(coarse.t[i] / fine_period));
+    const auto it = at.find(std::llround((coarse.t[i] - origin) / fine_period));
     if (it == at.end()) continue;
     const double d = coarse.modelled[i] - it->second;
     if (!std::isfinite(d)) continue;

@@ -26,6 +26,7 @@ MessagePhase messagePhase(const std::vector<double>& stamps, double period) {
   double phase = std::fmod(origin, period) + std::atan2(sines, cosines) / (2.0 * M_PI) * period;
   phase = std::fmod(phase, period);
   result.phase = phase < 0.0 ? phase + period : phase;
+  if (!(result.phase < period)) result.phase = 0.0;  // a remainder just below 0, rounded up to the period
   return result;
 }
 
