@@ -389,7 +389,6 @@ void UniformResampler::dropMessagesBefore(double t_next) {
 
 void UniformResampler::emitReady(std::vector<GridSample>* out, Emit mode) {
   const bool flushing = mode == Emit::kFlushing;
-  const double dt = config_.sample_period;
   if (!grid_started_ && !startGrid(flushing)) return;
   for (;;) {
     const double t = gridTime(next_index_);
@@ -403,7 +402,7 @@ void UniformResampler::emitReady(std::vector<GridSample>* out, Emit mode) {
       const auto ahead =
           std::find_if(c.buffer.begin(), c.buffer.end(), [t](const StreamSample& m) { return m.stamp >= t; });
       const bool reaches = c.has_any && c.buffer.back().stamp >= t + (flushing ? 0.0 : lead(s));
-      // The position's cubic waits for the neighbour after the bracket too, unless the grid is being closed
+      // A cubic (pressure, position) waits for the neighbour after the bracket too, unless the grid is being closed
       // or the stream has fallen silent (then the chord ends it, as at the end of a recording).
       const bool has_future =
           reaches && (mode != Emit::kLive || !interpolatedByCubic(s) || std::next(ahead) != c.buffer.end() ||
